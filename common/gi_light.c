@@ -1,0 +1,129 @@
+/* gi_light.c - sampling of point, spot, directional and rectangular area lights. */
+#include "gi_light.h"
+
+float gi_spot_falloff(const gi_light *l, float cos_angle)
+{
+    float co = cosf(l->outer_cone), ci = cosf(l->inner_cone);
+    float scale = 1.0f / fmaxf(1e-4f, ci - co);
+    float a = gi_clampf((cos_angle - co) * scale, 0.0f, 1.0f);
+    return a * a;
+}
+
+gi_vec3 gi_area_light_normal(const gi_light *l)
+{
+    return gi_norm(gi_cross(gi_v3p(l->u), gi_v3p(l->v)));
+}
+
+float gi_area_light_area(const gi_light *l)
+{
+    return 4.0f * gi_len(gi_cross(gi_v3p(l->u), gi_v3p(l->v)));
+}
+
+int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_light_sample *s)
+{
+    if (!l->enabled)
+        return 0;
+    gi_vec3 col = gi_scale(gi_v3p(l->color), l->intensity);
+    switch (l->type) {
+    case GI_LIGHT_POINT:
+    case GI_LIGHT_SPOT: {
+        gi_vec3 d = gi_sub(gi_v3p(l->position), x);
+        float d2 = gi_dot(d, d);
+        if (!(d2 > 0.0f))
+            return 0;
+        float dist = sqrtf(d2);
+        s->wi = gi_scale(d, 1.0f / dist);
+        s->dist = dist;
+        float att = 1.0f;
+        if (l->type == GI_LIGHT_SPOT) {
+            att = gi_spot_falloff(l, -gi_dot(s->wi, gi_v3p(l->direction)));
+            if (att <= 0.0f)
+                return 0;
+        }
+        s->value = gi_scale(col, att / d2);
+        s->pdf = 0.0f;
+        s->delta = 1;
+        return 1;
+    }
+    case GI_LIGHT_DIRECTIONAL:
+        s->wi = gi_neg(gi_norm(gi_v3p(l->direction)));
+        s->dist = INFINITY;
+        s->value = col;
+        s->pdf = 0.0f;
+        s->delta = 1;
+        return 1;
+    case GI_LIGHT_AREA: {
+        gi_vec3 u = gi_v3p(l->u), v = gi_v3p(l->v);
+        gi_vec3 p = gi_add(gi_v3p(l->position),
+                           gi_add(gi_scale(u, 2.0f * u1 - 1.0f), gi_scale(v, 2.0f * u2 - 1.0f)));
+        gi_vec3 d = gi_sub(p, x);
+        float d2 = gi_dot(d, d);
+        if (!(d2 > 0.0f))
+            return 0;
+        float dist = sqrtf(d2);
+        s->wi = gi_scale(d, 1.0f / dist);
+        float cosl = -gi_dot(s->wi, gi_area_light_normal(l));
+        if (cosl <= 0.0f)
+            return 0;
+        float area = gi_area_light_area(l);
+        s->pdf = d2 / (cosl * area);
+        s->dist = dist;
+        s->value = gi_scale(col, 1.0f / s->pdf);
+        s->delta = 0;
+        return 1;
+    }
+    default:
+        return 0;
+    }
+}
+
+float gi_area_light_intersect(const gi_light *l, gi_vec3 o, gi_vec3 d, float tmin, float tmax,
+                              int *front)
+{
+    gi_vec3 u = gi_v3p(l->u), v = gi_v3p(l->v);
+    gi_vec3 n = gi_cross(u, v);
+    float dn = gi_dot(d, n);
+    if (dn == 0.0f)
+        return 0.0f;
+    gi_vec3 c = gi_v3p(l->position);
+    float t = gi_dot(gi_sub(c, o), n) / dn;
+    if (!(t > tmin && t < tmax))
+        return 0.0f;
+    gi_vec3 q = gi_sub(gi_madd(o, d, t), c);
+    float uu = gi_dot(u, u), vv = gi_dot(v, v);
+    float a = gi_dot(q, u) / uu, b = gi_dot(q, v) / vv;
+    if (fabsf(a) > 1.0f || fabsf(b) > 1.0f)
+        return 0.0f;
+    *front = dn < 0.0f;
+    return t;
+}
+
+float gi_area_light_pdf(const gi_light *l, gi_vec3 d, float t)
+{
+    float cosl = -gi_dot(d, gi_area_light_normal(l));
+    if (cosl <= 0.0f)
+        return 0.0f;
+    return t * t / (cosl * gi_area_light_area(l));
+}
+
+float gi_light_power(const gi_light *l, float scene_cross_section_m2)
+{
+    if (!l->enabled)
+        return 0.0f;
+    float lum = gi_luminance(gi_v3p(l->color)) * l->intensity;
+    switch (l->type) {
+    case GI_LIGHT_POINT:
+        return 4.0f * GI_PIf * lum;
+    case GI_LIGHT_SPOT: {
+        /* solid angle of the cone between inner and outer, halfway */
+        float c = cosf(0.5f * (l->inner_cone + l->outer_cone));
+        return 2.0f * GI_PIf * (1.0f - c) * lum;
+    }
+    case GI_LIGHT_DIRECTIONAL:
+        return lum * scene_cross_section_m2;
+    case GI_LIGHT_AREA:
+        return GI_PIf * lum * gi_area_light_area(l);
+    default:
+        return 0.0f;
+    }
+}

@@ -1,0 +1,55 @@
+/* gi_light.h - light emission in photometric units, shared by the reference
+ * path tracer, gi-precompute (entry-point energies) and gi-relight.
+ *
+ * Point and spot: intensity in candela (cd); the illuminance at distance d on a
+ * surface at angle xi is E = I cos(xi) / d^2 (lux). Directional: illuminance in
+ * lux on a surface facing the light. Area (rectangle): luminance in cd/m^2,
+ * one-sided, emitting on the side of cross(u, v), Lambertian. Every value is
+ * multiplied per channel by the light's colour. Spot falloff follows
+ * KHR_lights_punctual: smooth between the inner and outer cone half angles. */
+#ifndef GI_LIGHT_H
+#define GI_LIGHT_H
+
+#include "gi_math.h"
+#include "gi_scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* One sample of incident light at a point x. The contribution to reflected
+ * radiance is f_s * value * cos(theta_i), already divided by the pdf. */
+typedef struct gi_light_sample {
+    gi_vec3 wi;     /* unit direction from x towards the light */
+    float dist;     /* distance to the sampled light point (INFINITY for directional) */
+    gi_vec3 value;  /* radiance / pdf (solid angle); for delta lights the irradiance-like term */
+    float pdf;      /* solid-angle pdf of the sample; 0 for delta lights */
+    int delta;      /* 1 for point, spot and directional lights */
+} gi_light_sample;
+
+/* Sample light l as seen from x. Returns 0 when the light contributes nothing
+ * (behind an area light, outside a spot cone, disabled). */
+int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_light_sample *s);
+/* Spot cone attenuation in [0,1] for the cosine between the axis and the
+ * direction from the light to the point. */
+float gi_spot_falloff(const gi_light *l, float cos_angle);
+/* Area light: normal (unit), area in m^2. */
+gi_vec3 gi_area_light_normal(const gi_light *l);
+float gi_area_light_area(const gi_light *l);
+/* Ray against an area light rectangle: distance t in (tmin, tmax) or 0 if none.
+ * Hits from either side are reported; *front says whether the ray sees the
+ * emitting side. */
+float gi_area_light_intersect(const gi_light *l, gi_vec3 o, gi_vec3 d, float tmin, float tmax,
+                              int *front);
+/* Solid-angle pdf of gi_light_sample_at for an area light when the sample
+ * lands at distance t along direction d from x (for MIS). */
+float gi_area_light_pdf(const gi_light *l, gi_vec3 d, float t);
+/* Total flux in lumens-per-channel-like units (W-free photometric power),
+ * used to choose among many lights: point 4 pi I, spot approx, directional
+ * E times the scene's cross-section area (given), area pi L A. */
+float gi_light_power(const gi_light *l, float scene_cross_section_m2);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,208 @@
+/* gi_rt.c - the Embree 3 scene and ray queries. */
+#define _POSIX_C_SOURCE 200809L
+#include "gi_rt.h"
+
+#include <embree3/rtcore.h>
+#include <pmmintrin.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <xmmintrin.h>
+
+struct gi_rt {
+    RTCDevice device;
+    RTCScene scene;
+    const gi_scene *s;
+    float eps;
+    int error;
+    char error_msg[256];
+};
+
+static void on_error(void *user, enum RTCError code, const char *str)
+{
+    gi_rt *rt = user;
+    if (rt && !rt->error) {
+        rt->error = (int)code;
+        snprintf(rt->error_msg, sizeof rt->error_msg, "embree error %d: %s", (int)code,
+                 str ? str : "");
+    }
+}
+
+/* Rays traced by the calling thread since its last gi_rt_take_ray_count. */
+static _Thread_local uint64_t tl_rays;
+
+uint64_t gi_rt_take_ray_count(void)
+{
+    uint64_t n = tl_rays;
+    tl_rays = 0;
+    return n;
+}
+
+void gi_rt_thread_init(void)
+{
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+}
+
+int gi_rt_new(const gi_scene *s, gi_rt **out, gi_status *st)
+{
+    *out = NULL;
+    gi_rt *rt = calloc(1, sizeof *rt);
+    if (!rt)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory building the ray-tracing scene");
+    rt->s = s;
+    gi_rt_thread_init();
+    rt->device = rtcNewDevice("verbose=0");
+    if (!rt->device) {
+        free(rt);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "cannot create the Embree device (error %d)",
+                             (int)rtcGetDeviceError(NULL));
+    }
+    rtcSetDeviceErrorFunction(rt->device, on_error, rt);
+    rt->scene = rtcNewScene(rt->device);
+    rtcSetSceneFlags(rt->scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_HIGH);
+    if (s->num_triangles > 0) {
+        RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        /* Embree-owned buffers carry the padding Embree needs past the last vertex. */
+        float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                            3 * sizeof(float), s->num_vertices);
+        unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                               3 * sizeof(unsigned), s->num_triangles);
+        if (!vb || !ib) {
+            rtcReleaseGeometry(g);
+            gi_rt_free(rt);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "cannot allocate Embree buffers for %zu triangles",
+                                 s->num_triangles);
+        }
+        memcpy(vb, s->positions, 3 * sizeof(float) * s->num_vertices);
+        memcpy(ib, s->indices, 3 * sizeof(unsigned) * s->num_triangles);
+        rtcCommitGeometry(g);
+        rtcAttachGeometryByID(rt->scene, g, 0);
+        rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(rt->scene);
+    if (rt->error || rtcGetDeviceError(rt->device) != RTC_ERROR_NONE) {
+        gi_status_set(st, GI_EXIT_SYSTEM, "building the Embree scene: %s",
+                      rt->error_msg[0] ? rt->error_msg : "unknown error");
+        gi_rt_free(rt);
+        return GI_EXIT_SYSTEM;
+    }
+    float ext = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        ext = fmaxf(ext, fabsf(s->bbox_min[k]));
+        ext = fmaxf(ext, fabsf(s->bbox_max[k]));
+    }
+    rt->eps = fmaxf(ext, 1e-6f) * 1e-5f;
+    *out = rt;
+    return 0;
+}
+
+void gi_rt_free(gi_rt *rt)
+{
+    if (!rt)
+        return;
+    if (rt->scene)
+        rtcReleaseScene(rt->scene);
+    if (rt->device)
+        rtcReleaseDevice(rt->device);
+    free(rt);
+}
+
+const gi_scene *gi_rt_scene(const gi_rt *rt) { return rt->s; }
+float gi_rt_scene_eps(const gi_rt *rt) { return rt->eps; }
+
+int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax, gi_hit *hit)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRayHit rh;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
+    rh.ray.tnear = tmin;
+    rh.ray.tfar = tmax;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    tl_rays++;
+    rtcIntersect1(rt->scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return 0;
+    hit->t = rh.ray.tfar;
+    hit->tri = rh.hit.primID;
+    hit->u = rh.hit.u;
+    hit->v = rh.hit.v;
+    return 1;
+}
+
+int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    struct RTCRay r;
+    r.org_x = o.x;
+    r.org_y = o.y;
+    r.org_z = o.z;
+    r.dir_x = d.x;
+    r.dir_y = d.y;
+    r.dir_z = d.z;
+    r.tnear = tmin;
+    r.tfar = tmax;
+    r.time = 0.0f;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+    tl_rays++;
+    rtcOccluded1(rt->scene, &ctx, &r);
+    return r.tfar < 0.0f;
+}
+
+void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf)
+{
+    const gi_scene *s = rt->s;
+    const uint32_t *ix = s->indices + 3 * (size_t)hit->tri;
+    gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+    gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
+    gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
+    float u = hit->u, v = hit->v, w = 1.0f - u - v;
+    gi_vec3 e1 = gi_sub(p1, p0), e2 = gi_sub(p2, p0);
+    sf->p = gi_add(p0, gi_add(gi_scale(e1, u), gi_scale(e2, v)));
+    sf->ng = gi_norm(gi_cross(e1, e2));
+    gi_vec3 n0 = gi_v3p(s->normals + 3 * (size_t)ix[0]);
+    gi_vec3 n1 = gi_v3p(s->normals + 3 * (size_t)ix[1]);
+    gi_vec3 n2 = gi_v3p(s->normals + 3 * (size_t)ix[2]);
+    gi_vec3 ns = gi_add(gi_scale(n0, w), gi_add(gi_scale(n1, u), gi_scale(n2, v)));
+    float l = gi_len(ns);
+    sf->ns = l > 1e-12f ? gi_scale(ns, 1.0f / l) : sf->ng;
+    for (int k = 0; k < 2; k++) {
+        sf->uv0[k] = w * s->uv0[2 * ix[0] + k] + u * s->uv0[2 * ix[1] + k] + v * s->uv0[2 * ix[2] + k];
+        sf->uv1[k] = w * s->uv1[2 * ix[0] + k] + u * s->uv1[2 * ix[1] + k] + v * s->uv1[2 * ix[2] + k];
+    }
+    sf->tri = hit->tri;
+    sf->material = s->tri_material[hit->tri];
+}
+
+/* Offset by integer ulps (large |p|) or a fixed tiny step (|p| near 0). */
+gi_vec3 gi_rt_offset(gi_vec3 p, gi_vec3 ng, gi_vec3 dir)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    gi_vec3 n = gi_dot(ng, dir) < 0.0f ? gi_neg(ng) : ng;
+    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, r[3];
+    for (int k = 0; k < 3; k++) {
+        int32_t of = (int32_t)(int_scale * nc[k]);
+        int32_t bits;
+        memcpy(&bits, &pc[k], 4);
+        bits += pc[k] < 0.0f ? -of : of;
+        float pi;
+        memcpy(&pi, &bits, 4);
+        r[k] = fabsf(pc[k]) < origin ? pc[k] + float_scale * nc[k] : pi;
+    }
+    return gi_v3(r[0], r[1], r[2]);
+}

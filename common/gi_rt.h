@@ -1,0 +1,60 @@
+/* gi_rt.h - ray tracing against a gi_scene with Embree 3, shared by all tools.
+ *
+ * gi_rt_new builds one Embree device and scene (robust, high quality BVH)
+ * with a triangle's Embree primID equal to its gi_scene triangle index.
+ * The gi_scene must outlive the gi_rt. Each thread that traces calls
+ * gi_rt_thread_init() once (sets FTZ/DAZ as Embree asks). Queries are
+ * thread-safe. Errors from Embree are recorded and turned into GI_EXIT_SYSTEM. */
+#ifndef GI_RT_H
+#define GI_RT_H
+
+#include <stdint.h>
+
+#include "gi_math.h"
+#include "gi_scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct gi_rt gi_rt;
+
+typedef struct gi_hit {
+    float t;        /* distance along the (unit) ray direction */
+    uint32_t tri;   /* triangle index in the gi_scene */
+    float u, v;     /* barycentrics: p = (1-u-v) p0 + u p1 + v p2 */
+} gi_hit;
+
+/* Surface data at a hit, computed from barycentrics for accuracy. */
+typedef struct gi_surface {
+    gi_vec3 p;       /* position */
+    gi_vec3 ng;      /* unit geometric normal, on the triangle's front side (CCW) */
+    gi_vec3 ns;      /* unit interpolated shading normal */
+    float uv0[2], uv1[2];
+    uint32_t tri, material;
+} gi_surface;
+
+int gi_rt_new(const gi_scene *s, gi_rt **out, gi_status *st);
+void gi_rt_free(gi_rt *rt);
+void gi_rt_thread_init(void);
+
+/* Closest hit along o + t d, t in (tmin, tmax); returns 1 on a hit. d unit. */
+int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax, gi_hit *hit);
+/* 1 if anything blocks o + t d for t in (tmin, tmax). */
+int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax);
+/* Fill the surface record of a hit. */
+void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);
+/* Move p off its surface along ng (towards the side dir points to) by a few
+ * ulps scaled with |p|: robust for scenes from millimetres to kilometres
+ * (Waechter and Binder 2019, reimplemented). */
+gi_vec3 gi_rt_offset(gi_vec3 p, gi_vec3 ng, gi_vec3 dir);
+/* A distance below which two points count as the same, scaled with the scene. */
+float gi_rt_scene_eps(const gi_rt *rt);
+const gi_scene *gi_rt_scene(const gi_rt *rt);
+/* Rays traced by the calling thread since its previous call (then reset). */
+uint64_t gi_rt_take_ray_count(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,47 @@
+# tests/cli/lib.sh - helpers for the CLI tests (sourced). Each check prints
+# "ok N - what" or "not ok N - what" (TAP style); tests/run.sh counts them.
+# Death by signal (exit > 128) is always a failure, even where failure is expected.
+set -u
+: "${BIN:?BIN must point at the tool directory}"
+: "${GI_ROOT:=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
+export PATH="$BIN:$PATH"
+export MESA_SHADER_CACHE_DISABLE=true
+SHARED=${GI_SHARED:-$GI_ROOT/../shared}
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+_n=0
+_fail=0
+
+ok()     { _n=$((_n + 1)); echo "ok $_n - $*"; }
+not_ok() { _n=$((_n + 1)); _fail=1; echo "not ok $_n - $*"; }
+
+# expect_success WHAT CMD...: the command exits 0.
+expect_success() {
+  local what=$1; shift
+  "$@" >"$TMP/stdout" 2>"$TMP/stderr"; local rc=$?
+  if [ $rc -eq 0 ]; then ok "$what"; else not_ok "$what (exit $rc)"; sed 's/^/#   /' "$TMP/stderr" | tail -5; fi
+}
+
+# expect_exit CODE WHAT CMD...: the command exits with CODE exactly (never a signal).
+expect_exit() {
+  local code=$1 what=$2; shift 2
+  "$@" >"$TMP/stdout" 2>"$TMP/stderr"; local rc=$?
+  if [ $rc -eq "$code" ]; then ok "$what"; else not_ok "$what (exit $rc, wanted $code)"; sed 's/^/#   /' "$TMP/stderr" | tail -5; fi
+}
+
+# expect_stderr PATTERN WHAT: the last command's stderr matches the extended regex.
+expect_stderr() {
+  if grep -Eq -- "$1" "$TMP/stderr"; then ok "$2"; else not_ok "$2 (stderr lacks /$1/)"; sed 's/^/#   /' "$TMP/stderr" | tail -5; fi
+}
+# expect_stdout PATTERN WHAT: the last command's stdout matches the extended regex.
+expect_stdout() {
+  if grep -Eq -- "$1" "$TMP/stdout"; then ok "$2"; else not_ok "$2 (stdout lacks /$1/)"; sed 's/^/#   /' "$TMP/stdout" | tail -5; fi
+}
+
+# check WHAT CMD...: any command as a boolean assertion.
+check() {
+  local what=$1; shift
+  if "$@"; then ok "$what"; else not_ok "$what"; fi
+}
+
+finish() { exit $_fail; }

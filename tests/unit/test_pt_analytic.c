@@ -1,0 +1,456 @@
+/* test_pt_analytic.c - the reference path tracer against analytic truth:
+ * inverse-square and cosine laws, area-source configuration factors, flux
+ * conservation, closed rooms of high reflectance (no bounce cap), and the
+ * furnace. Each Monte Carlo check allows max(4 standard errors, a small
+ * floor) and is sized so that a 5% mistake falls outside it. */
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "gi_gltf_write.h"
+#include "gi_log.h"
+#include "gi_math.h"
+#include "gi_pt.h"
+#include "gi_rt.h"
+#include "gi_scene.h"
+
+static char g_dir[256];
+
+typedef struct world {
+    gi_scene *s;
+    gi_rt *rt;
+    gi_pt *pt;
+    gi_light lights[8];
+    size_t nl;
+} world;
+
+/* Write the builder's scene, load it back and build a tracer for `lights`. */
+static void world_make(world *w, gi_gltf_builder *b, const char *name, int threads)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s.gltf", g_dir, name);
+    gi_status st = {0};
+    assert_int_equal(gi_gltf_builder_write(b, path, &st), 0);
+    gi_gltf_builder_free(b);
+    assert_int_equal(gi_scene_load(path, &w->s, &st), 0);
+    assert_int_equal(gi_rt_new(w->s, &w->rt, &st), 0);
+    gi_pt_opts o;
+    gi_pt_opts_default(&o);
+    o.progress = 0;
+    o.threads = threads;
+    o.seed = getenv("GI_TEST_SEED") ? strtoull(getenv("GI_TEST_SEED"), NULL, 10) : 7;
+    assert_int_equal(gi_pt_new(w->rt, w->lights, w->nl, w->s->materials, w->s->num_materials, &o,
+                               &w->pt, &st),
+                     0);
+}
+
+static void world_free(world *w)
+{
+    gi_pt_free(w->pt);
+    gi_rt_free(w->rt);
+    gi_scene_free(w->s);
+}
+
+static gi_light point_light(float x, float y, float z, float cd)
+{
+    gi_light l;
+    memset(&l, 0, sizeof l);
+    strcpy(l.name, "p");
+    l.type = GI_LIGHT_POINT;
+    l.enabled = 1;
+    l.color[0] = l.color[1] = l.color[2] = 1.0f;
+    l.intensity = cd;
+    l.position[0] = x;
+    l.position[1] = y;
+    l.position[2] = z;
+    return l;
+}
+
+static gi_light area_light(const float c[3], const float u[3], const float v[3], float nits)
+{
+    gi_light l;
+    memset(&l, 0, sizeof l);
+    strcpy(l.name, "a");
+    l.type = GI_LIGHT_AREA;
+    l.enabled = 1;
+    l.color[0] = l.color[1] = l.color[2] = 1.0f;
+    l.intensity = nits;
+    memcpy(l.position, c, sizeof l.position);
+    memcpy(l.u, u, sizeof l.u);
+    memcpy(l.v, v, sizeof l.v);
+    return l;
+}
+
+/* Albedo of a dielectric roughness-1 material is 0.96 base + 0.04 (gi_brdf.h):
+ * the base colour that gives reflectance rho. */
+static float base_for_albedo(float rho) { return (rho - 0.04f) / 0.96f; }
+
+static void big_plane(gi_gltf_builder *b, float half, int mat)
+{
+    float p0[3] = {-half, 0, -half}, p1[3] = {-half, 0, half}, p2[3] = {half, 0, half},
+          p3[3] = {half, 0, -half};
+    gi_gltf_add_quad(b, p0, p1, p2, p3, mat); /* normal +y: (p1-p0) x (p2-p0) */
+}
+
+/* ---- 1. inverse-square and cosine law ---------------------------------- */
+static void test_point_inverse_square(void **state)
+{
+    (void)state;
+    world w = {0};
+    w.lights[w.nl++] = point_light(0.0f, 2.0f, 0.0f, 100.0f);
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float black[3] = {0.0f, 0.0f, 0.0f};
+    int m = gi_gltf_add_material(b, "floor", black, 1.0f, 1.0f, NULL, 0);
+    big_plane(b, 1000.0f, m);
+    world_make(&w, b, "plane_point", 2);
+    /* sensors on the black floor facing up, and tilted ones above it */
+    float pts[][6] = {
+        {0, 0, 0, 0, 1, 0},   {1, 0, 0, 0, 1, 0},   {2, 0, 0, 0, 1, 0},      {5, 0, 3, 0, 1, 0},
+        {0.3f, 0, -7, 0, 1, 0}, {1, 0.5f, 0, -1, 1, 0}, {0, 1, 1, 0, 0.2f, -1},
+    };
+    size_t n = sizeof pts / sizeof pts[0];
+    for (size_t i = 0; i < n; i++) { /* normalise normals as gi-compare sensors does */
+        gi_vec3 nn = gi_norm(gi_v3p(pts[i] + 3));
+        gi_v3store(pts[i] + 3, nn);
+    }
+    double lux[16], err[16];
+    gi_status st = {0};
+    assert_int_equal(gi_pt_sensors(w.pt, &pts[0][0], n, 16, lux, err, &st), 0);
+    for (size_t i = 0; i < n; i++) {
+        gi_vec3 d = gi_sub(gi_v3p(w.lights[0].position), gi_v3p(pts[i]));
+        float d2 = gi_dot(d, d);
+        float cosx = gi_dot(gi_norm(d), gi_v3p(pts[i] + 3));
+        double expect = 100.0 * fmax(0.0, cosx) / d2;
+        /* the sensor sees only the light and a black floor: exact */
+        if (fabs(lux[i] - expect) > 1e-4 * expect + 1e-9)
+            fail_msg("point %zu: E = %.6g lux, expected I cos/d^2 = %.6g", i, lux[i], expect);
+    }
+    world_free(&w);
+}
+
+/* Spot and directional lights obey the same laws with their own intensity. */
+static void test_spot_directional(void **state)
+{
+    (void)state;
+    world w = {0};
+    gi_light sp = point_light(0.0f, 3.0f, 0.0f, 400.0f);
+    sp.type = GI_LIGHT_SPOT;
+    sp.direction[1] = -1.0f;
+    sp.inner_cone = (float)(20.0 * GI_PI / 180.0);
+    sp.outer_cone = (float)(30.0 * GI_PI / 180.0);
+    w.lights[w.nl++] = sp;
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float black[3] = {0, 0, 0};
+    int m = gi_gltf_add_material(b, "floor", black, 1.0f, 1.0f, NULL, 0);
+    big_plane(b, 100.0f, m);
+    world_make(&w, b, "plane_spot", 1);
+    /* inside the inner cone (full), outside the outer cone (zero) */
+    float pts[3][6] = {{0.5f, 0, 0, 0, 1, 0}, {3.0f, 0, 0, 0, 1, 0}, {0, 0, 0, 0, 1, 0}};
+    double lux[3], err[3];
+    gi_status st = {0};
+    assert_int_equal(gi_pt_sensors(w.pt, &pts[0][0], 3, 4, lux, err, &st), 0);
+    double d2 = 9.0 + 0.25;
+    double e0 = 400.0 * (3.0 / sqrt(d2)) / d2;
+    assert_true(fabs(lux[0] - e0) < 1e-4 * e0);
+    assert_true(lux[1] == 0.0); /* atan(3/3) = 45 deg > 30 deg */
+    assert_true(fabs(lux[2] - 400.0 / 9.0) < 1e-4 * 400.0 / 9.0);
+    world_free(&w);
+
+    world w2 = {0};
+    gi_light sun;
+    memset(&sun, 0, sizeof sun);
+    sun.type = GI_LIGHT_DIRECTIONAL;
+    sun.enabled = 1;
+    sun.color[0] = sun.color[1] = sun.color[2] = 1.0f;
+    sun.intensity = 10000.0f;
+    gi_vec3 dir = gi_norm(gi_v3(0.3f, -1.0f, 0.2f));
+    gi_v3store(sun.direction, dir);
+    w2.lights[w2.nl++] = sun;
+    b = gi_gltf_builder_new();
+    m = gi_gltf_add_material(b, "floor", black, 1.0f, 1.0f, NULL, 0);
+    big_plane(b, 100.0f, m);
+    world_make(&w2, b, "plane_sun", 1);
+    float p2[1][6] = {{1, 0, 1, 0, 1, 0}};
+    assert_int_equal(gi_pt_sensors(w2.pt, &p2[0][0], 1, 4, lux, err, &st), 0);
+    double es = 10000.0 * -dir.y;
+    assert_true(fabs(lux[0] - es) < 1e-4 * es);
+    world_free(&w2);
+}
+
+/* ---- 2. area source: E = L * (projected solid angle) -------------------- */
+/* Lambert's formula for a polygon seen from x with normal n:
+ * integral of cos over the solid angle = 1/2 sum_i theta_i n . unit(R_i x R_i+1). */
+static double polygon_projected_solid_angle(const gi_vec3 *poly, int k, gi_vec3 x, gi_vec3 n)
+{
+    double sum = 0.0;
+    for (int i = 0; i < k; i++) {
+        gi_vec3 a = gi_sub(poly[i], x), c = gi_sub(poly[(i + 1) % k], x);
+        double ax = a.x, ay = a.y, az = a.z, cx = c.x, cy = c.y, cz = c.z;
+        double la = sqrt(ax * ax + ay * ay + az * az), lc = sqrt(cx * cx + cy * cy + cz * cz);
+        double dot = (ax * cx + ay * cy + az * cz) / (la * lc);
+        double th = acos(fmax(-1.0, fmin(1.0, dot)));
+        double gx = ay * cz - az * cy, gy = az * cx - ax * cz, gz = ax * cy - ay * cx;
+        double lg = sqrt(gx * gx + gy * gy + gz * gz);
+        if (lg > 0)
+            sum += th * (n.x * gx + n.y * gy + n.z * gz) / lg;
+    }
+    return 0.5 * fabs(sum);
+}
+
+static void test_area_configuration_factor(void **state)
+{
+    (void)state;
+    world w = {0};
+    float c[3] = {0, 1, 0}, u[3] = {0.5f, 0, 0}, v[3] = {0, 0, 0.25f};
+    const float L = 1000.0f;
+    w.lights[w.nl++] = area_light(c, u, v, L); /* u x v = -y: emits down */
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float black[3] = {0, 0, 0};
+    int m = gi_gltf_add_material(b, "floor", black, 1.0f, 1.0f, NULL, 0);
+    big_plane(b, 100.0f, m);
+    world_make(&w, b, "plane_area", 2);
+    float pts[][6] = {
+        {0, 0, 0, 0, 1, 0},       {0.5f, 0, 0, 0, 1, 0},   {0.5f, 0, 0.25f, 0, 1, 0},
+        {2, 0, 0, 0, 1, 0},       {0.45f, 0.9f, 0, 0, 1, 0}, /* close under the edge */
+        {0, 0.5f, 0, 0.6f, 0.8f, 0},
+    };
+    size_t n = sizeof pts / sizeof pts[0];
+    gi_vec3 poly[4] = {gi_v3(-0.5f, 1, -0.25f), gi_v3(0.5f, 1, -0.25f), gi_v3(0.5f, 1, 0.25f),
+                       gi_v3(-0.5f, 1, 0.25f)};
+    double lux[8], err[8];
+    gi_status st = {0};
+    assert_int_equal(gi_pt_sensors(w.pt, &pts[0][0], n, 65536, lux, err, &st), 0);
+    for (size_t i = 0; i < n; i++) {
+        double expect = L * polygon_projected_solid_angle(poly, 4, gi_v3p(pts[i]), gi_v3p(pts[i] + 3));
+        double tol = fmax(4.0 * err[i], 0.003 * expect);
+        print_message("area point %zu: E = %.5g +- %.2g lux, exact %.5g (%.2f%%)\n", i, lux[i], err[i],
+                      expect, 100.0 * (lux[i] - expect) / expect);
+        assert_true(tol < 0.02 * expect); /* precise enough to catch a 5% mistake */
+        if (fabs(lux[i] - expect) > tol)
+            fail_msg("area point %zu: E = %.6g +- %.3g, exact pi L F = %.6g", i, lux[i], err[i], expect);
+    }
+    world_free(&w);
+}
+
+/* ---- 3. flux conservation in a black box -------------------------------- */
+/* Midpoint-rule sum of E * dA over the six inner faces of the cube [-1,1]^3. */
+static double box_flux(world *w, int k, int spp, double *stderr_out)
+{
+    size_t n = 6 * (size_t)k * (size_t)k;
+    float *pts = malloc(n * 6 * sizeof *pts);
+    double *lux = malloc(n * sizeof *lux), *err = malloc(n * sizeof *err);
+    size_t i = 0;
+    for (int f = 0; f < 6; f++) {
+        int ax = f / 2;
+        float side = (f % 2) ? 1.0f : -1.0f;
+        for (int a = 0; a < k; a++)
+            for (int bb = 0; bb < k; bb++) {
+                float p[3], nn[3] = {0, 0, 0};
+                p[ax] = side;
+                p[(ax + 1) % 3] = -1.0f + (2.0f * (float)a + 1.0f) / (float)k;
+                p[(ax + 2) % 3] = -1.0f + (2.0f * (float)bb + 1.0f) / (float)k;
+                nn[ax] = -side;
+                memcpy(pts + 6 * i, p, sizeof p);
+                memcpy(pts + 6 * i + 3, nn, sizeof nn);
+                i++;
+            }
+    }
+    gi_status st = {0};
+    assert_int_equal(gi_pt_sensors(w->pt, pts, n, spp, lux, err, &st), 0);
+    double dA = 4.0 / ((double)k * k), sum = 0.0, var = 0.0;
+    for (i = 0; i < n; i++) {
+        sum += lux[i] * dA;
+        var += err[i] * err[i] * dA * dA;
+    }
+    free(pts);
+    free(lux);
+    free(err);
+    *stderr_out = sqrt(var);
+    return sum;
+}
+
+static void black_box(gi_gltf_builder *b, float rho)
+{
+    /* rho 0: metallic black, the only material with zero reflectance */
+    float base = rho > 0 ? base_for_albedo(rho) : 0.0f;
+    float col[3] = {base, base, base};
+    int m = gi_gltf_add_material(b, "walls", col, 1.0f, rho > 0 ? 0.0f : 1.0f, NULL, 0);
+    float lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
+    gi_gltf_add_box(b, lo, hi, m, 1);
+}
+
+static void test_flux_conservation(void **state)
+{
+    (void)state;
+    /* point source off centre: sum E A = 4 pi I */
+    world w = {0};
+    const float I = 50.0f;
+    w.lights[w.nl++] = point_light(0.2f, -0.3f, 0.1f, I);
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    black_box(b, 0.0f);
+    world_make(&w, b, "black_box_point", 2);
+    double se;
+    double phi = box_flux(&w, 48, 2, &se);
+    double expect = 4.0 * GI_PI * I;
+    print_message("point source: sum E A = %.6g lm, flux %.6g lm (%.3f%%)\n", phi, expect,
+                  100.0 * (phi - expect) / expect);
+    assert_true(fabs(phi - expect) < 0.005 * expect);
+    world_free(&w);
+
+    /* area source facing down from the centre: flux = pi L A */
+    world w2 = {0};
+    float c[3] = {0, 0.5f, 0}, u[3] = {0.3f, 0, 0}, v[3] = {0, 0, 0.2f};
+    w2.lights[w2.nl++] = area_light(c, u, v, 100.0f);
+    b = gi_gltf_builder_new();
+    black_box(b, 0.0f);
+    world_make(&w2, b, "black_box_area", 2);
+    phi = box_flux(&w2, 24, 64, &se);
+    expect = GI_PI * 100.0 * (4.0 * 0.3 * 0.2);
+    print_message("area source: sum E A = %.6g +- %.2g lm, flux %.6g lm (%.3f%%)\n", phi, se, expect,
+                  100.0 * (phi - expect) / expect);
+    assert_true(se < 0.01 * expect);
+    assert_true(fabs(phi - expect) < fmax(4.0 * se, 0.005 * expect));
+    world_free(&w2);
+}
+
+/* ---- 4. closed room of uniform reflectance ------------------------------ */
+static void room_check(float rho, int spp)
+{
+    world w = {0};
+    const float I = 10.0f;
+    w.lights[w.nl++] = point_light(0.1f, 0.2f, -0.15f, I);
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    black_box(b, rho);
+    char name[64];
+    snprintf(name, sizeof name, "room_%02d", (int)(rho * 100.0f + 0.5f));
+    world_make(&w, b, name, 2);
+    double se;
+    double phi_in = box_flux(&w, 16, spp, &se); /* sum E A over all surfaces */
+    double S = 24.0, Phi = 4.0 * GI_PI * I;
+    double mean = phi_in / S, expect = Phi / (S * (1.0 - rho)), se_mean = se / S;
+    double capped = 0.0; /* what a 3-bounce cap would give, to show the test would catch it */
+    for (int k = 0; k <= 3; k++)
+        capped += pow(rho, k);
+    capped *= Phi / S;
+    print_message("room rho %.2f: mean E = %.5g +- %.2g lux, exact %.5g (%.2f%%); a 3-bounce cap gives %.5g\n",
+                  rho, mean, se_mean, expect, 100.0 * (mean - expect) / expect, capped);
+    assert_true(4.0 * se_mean < 0.02 * expect);
+    assert_true(fabs(mean - expect) < fmax(4.0 * se_mean, 0.005 * expect));
+    world_free(&w);
+}
+
+static void test_room_rho50(void **state) { (void)state; room_check(0.5f, 64); }
+static void test_room_rho90(void **state) { (void)state; room_check(0.9f, 128); }
+
+/* ---- 5. furnace: emitting enclosure, radiance Le / (1 - rho) ------------ */
+static void furnace_check(float rho)
+{
+    world w = {0};
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float base = base_for_albedo(rho);
+    float col[3] = {base, base, base}, le[3] = {2.0f, 2.0f, 2.0f};
+    int m = gi_gltf_add_material(b, "glow", col, 1.0f, 0.0f, le, 0);
+    float lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
+    gi_gltf_add_box(b, lo, hi, m, 1);
+    world_make(&w, b, rho > 0.7f ? "furnace80" : "furnace50", 2);
+    gi_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position[0] = 0.3f;
+    cam.forward[0] = 1.0f;
+    cam.up[1] = 1.0f;
+    cam.yfov = 1.2f;
+    int W = 24, H = 16, spp = 64;
+    float *img = malloc((size_t)W * H * 3 * sizeof *img);
+    gi_pt_render_result res;
+    gi_status st = {0};
+    assert_int_equal(gi_pt_render(w.pt, &cam, W, H, spp, 0.0, img, &res, &st), 0);
+    double sum = 0.0, sum2 = 0.0;
+    for (int i = 0; i < W * H; i++) {
+        double y = gi_luminance(gi_v3p(img + 3 * i));
+        sum += y;
+        sum2 += y * y;
+    }
+    double n = (double)W * H, mean = sum / n;
+    double se = sqrt(fmax(0.0, sum2 / n - mean * mean) / n);
+    double expect = 2.0 / (1.0 - rho);
+    print_message("furnace rho %.2f: mean L = %.5g +- %.2g nits, exact %.5g (%.2f%%), %d spp\n", rho,
+                  mean, se, expect, 100.0 * (mean - expect) / expect, res.spp);
+    assert_int_equal(res.spp, spp);
+    assert_int_equal((int)res.dropped, 0);
+    assert_true(4.0 * se < 0.02 * expect);
+    assert_true(fabs(mean - expect) < fmax(4.0 * se, 0.005 * expect));
+    free(img);
+    world_free(&w);
+}
+
+static void test_furnace(void **state)
+{
+    (void)state;
+    furnace_check(0.5f);
+    furnace_check(0.8f);
+}
+
+/* Thread count does not change the result. */
+static void test_thread_independence(void **state)
+{
+    (void)state;
+    float *img[2];
+    for (int t = 0; t < 2; t++) {
+        world w = {0};
+        w.lights[w.nl++] = point_light(0.1f, 0.5f, 0.0f, 5.0f);
+        gi_gltf_builder *b = gi_gltf_builder_new();
+        black_box(b, 0.6f);
+        world_make(&w, b, t ? "thr2" : "thr1", t + 1);
+        gi_camera cam;
+        memset(&cam, 0, sizeof cam);
+        cam.forward[2] = 1.0f;
+        cam.up[1] = 1.0f;
+        cam.yfov = 1.0f;
+        img[t] = malloc(16 * 12 * 3 * sizeof(float));
+        gi_status st = {0};
+        gi_pt_render_result res;
+        assert_int_equal(gi_pt_render(w.pt, &cam, 16, 12, 8, 0.0, img[t], &res, &st), 0);
+        world_free(&w);
+    }
+    assert_memory_equal(img[0], img[1], 16 * 12 * 3 * sizeof(float));
+    free(img[0]);
+    free(img[1]);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    gi_log_set_verbosity(-1);
+    snprintf(g_dir, sizeof g_dir, "/tmp/gi_test_pt.XXXXXX");
+    return mkdtemp(g_dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_point_inverse_square),
+        cmocka_unit_test(test_spot_directional),
+        cmocka_unit_test(test_area_configuration_factor),
+        cmocka_unit_test(test_flux_conservation),
+        cmocka_unit_test(test_room_rho50),
+        cmocka_unit_test(test_room_rho90),
+        cmocka_unit_test(test_furnace),
+        cmocka_unit_test(test_thread_independence),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
