@@ -135,8 +135,9 @@ fuzz: deps
 	@mkdir -p build/fuzz/bin
 	@for f in $(FUZZ_SRC); do n=$$(basename $$f .c); \
 	  echo "  FUZZ $$n"; \
-	  clang $(CPPFLAGS) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined $$f build/fuzz/libgi.a \
-	    -fopenmp -lstdc++ $(LDLIBS) -o build/fuzz/bin/$$n || exit 4; done
+	  clang $(CPPFLAGS) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -c $$f -o build/fuzz/$$n.o && \
+	  clang++ -fsanitize=fuzzer,address,undefined build/fuzz/$$n.o build/fuzz/libgi.a \
+	    -fopenmp $(LDLIBS) -o build/fuzz/bin/$$n || exit 4; done
 	@tests/fuzz/run.sh build/fuzz/bin $(FUZZ_SECONDS)
 
 clean:

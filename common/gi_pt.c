@@ -303,29 +303,19 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
         gi_hit h;
         int hit = gi_rt_intersect(pt->rt, o, wi, 0.0f, INFINITY, &h);
         float thit = hit ? h.t : INFINITY;
-        /* area lights (not geometry): MIS with light sampling */
-        int hit_light = -1;
-        float tl = thit;
-        int lfront = 0;
+        /* area lights are not geometry: every one the segment crosses adds its
+         * emission (MIS with light sampling) and the path goes on */
         for (size_t i = 0; i < pt->nl; i++) {
-            if (pt->lights[i].type != GI_LIGHT_AREA)
+            const gi_light *l = &pt->lights[i];
+            if (l->type != GI_LIGHT_AREA)
                 continue;
-            int front;
-            float t = gi_area_light_intersect(&pt->lights[i], o, wi, 0.0f, tl, &front);
-            if (t > 0.0f) {
-                tl = t;
-                hit_light = (int)i;
-                lfront = front;
-            }
-        }
-        if (hit_light >= 0) {
-            const gi_light *l = &pt->lights[hit_light];
-            if (lfront) {
-                float lp = gi_area_light_pdf(l, wi, tl) * pt->light_prob[hit_light];
+            int lfront;
+            float t = gi_area_light_intersect(l, o, wi, 0.0f, thit, &lfront);
+            if (t > 0.0f && lfront) {
+                float lp = gi_area_light_pdf(l, wi, t) * pt->light_prob[i];
                 float wgt = power_heuristic(pdf, lp);
                 L = gi_add(L, gi_scale(gi_mul(beta, gi_v3p(l->color)), l->intensity * wgt));
             }
-            break;
         }
         if (!hit)
             break;
@@ -366,24 +356,15 @@ gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_rng *rng)
     int hit = gi_rt_intersect(pt->rt, o, d, 0.0f, INFINITY, &h);
     float thit = hit ? h.t : INFINITY;
     gi_vec3 L = gi_v3(0.0f, 0.0f, 0.0f);
-    /* directly visible area lights */
-    int hit_light = -1, lfront = 0;
-    float tl = thit;
+    /* directly visible area lights (all in front of the surface; they do not block) */
     for (size_t i = 0; i < pt->nl; i++) {
-        if (pt->lights[i].type != GI_LIGHT_AREA)
+        const gi_light *l = &pt->lights[i];
+        if (l->type != GI_LIGHT_AREA)
             continue;
-        int front;
-        float t = gi_area_light_intersect(&pt->lights[i], o, d, 0.0f, tl, &front);
-        if (t > 0.0f) {
-            tl = t;
-            hit_light = (int)i;
-            lfront = front;
-        }
-    }
-    if (hit_light >= 0) {
-        if (lfront)
-            L = gi_scale(gi_v3p(pt->lights[hit_light].color), pt->lights[hit_light].intensity);
-        return L;
+        int lfront;
+        float t = gi_area_light_intersect(l, o, d, 0.0f, thit, &lfront);
+        if (t > 0.0f && lfront)
+            L = gi_add(L, gi_scale(gi_v3p(l->color), l->intensity));
     }
     if (!hit)
         return L;

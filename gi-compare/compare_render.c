@@ -199,6 +199,10 @@ static int read_points(const char *path, float **pts, size_t *n, gi_status *st)
         char *hash = strchr(line, '#');
         if (hash)
             *hash = '\0';
+        size_t ll = strlen(line);
+        while (ll > 0 && (line[ll - 1] == '\n' || line[ll - 1] == '\r' || line[ll - 1] == ' ' ||
+                          line[ll - 1] == '\t'))
+            line[--ll] = '\0';
         char *s = line;
         while (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n')
             s++;
@@ -216,6 +220,8 @@ static int read_points(const char *path, float **pts, size_t *n, gi_status *st)
         }
         for (int k = 0; k < 6; k++) {
             char *end;
+            while (*s == ' ' || *s == '\t')
+                s++;
             errno = 0;
             double v = strtod(s, &end);
             if (end == s || errno || !isfinite(v)) {

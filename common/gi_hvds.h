@@ -1,0 +1,103 @@
+/* gi_hvds.h - the adaptive hierarchical volume (HVDS) of gi-hvds: octree,
+ * keys (cell, normal bin, direction bin), the photon -> key map, gathering
+ * points and their gathering rays as (key, count) pairs. Method in
+ * docs/pipeline.md, bytes in docs/formats.md (.gih).
+ *
+ * Call order: gi_hvds_build (from a scene, its ray tracer and a .gip) or
+ * gi_hvds_read (a .gih, checked against the scene and the .gip), then the
+ * arrays, then gi_hvds_free. Keys are ordered so that every key's parent
+ * comes after it: summing flux up the hierarchy is one pass in key order. */
+#ifndef GI_HVDS_H
+#define GI_HVDS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gi_gip.h"
+#include "gi_rt.h"
+#include "gi_scene.h"
+#include "gi_status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define GI_HVDS_MAGIC "GIHVDS\0\0"
+#define GI_HVDS_MAJOR 1
+#define GI_HVDS_MINOR 0
+#define GI_HVDS_NORMAL_BINS 26
+#define GI_HVDS_NO_KEY 0xffffffffu
+#define GI_HVDS_MAX_DEPTH 20
+
+enum { GI_GATHER_REJECTION = 0, GI_GATHER_KMEANS = 1 };
+
+typedef struct gi_hvds_opts {
+    int gather;              /* GI_GATHER_* */
+    int gather_rays;         /* rays per gathering point (rounded to a square) */
+    float r_min, r_max;      /* R- and R+ in metres (0: from the scene size) */
+    int dir_bins;            /* direction bins on the sphere for glossy keys */
+    float cell_photons;      /* the smallest cell holds about this many photons on average */
+    int occlusion_check;     /* 1: gathering rays descend past occluded coarse content (default) */
+    int leak_check;          /* 1: split cells whose same-bin photons cannot see each other (default) */
+    uint64_t seed;
+} gi_hvds_opts;
+
+void gi_hvds_opts_default(gi_hvds_opts *o);
+
+typedef struct gi_gpoint {
+    float pos[3];
+    float nrm[3];            /* oriented normal: the side the point sees */
+    float radius;            /* effective radius (Tabellion): weight falls to 0 beyond it */
+    float r_harmonic;        /* harmonic mean distance of the gathering rays' hits (irradiance cache) */
+    uint32_t tri;            /* triangle it lies on */
+    uint32_t first_pair;     /* its (key, count) pairs: [first_pair, first_pair + num_pairs) */
+    uint32_t num_pairs;
+} gi_gpoint;
+
+typedef struct gi_hvds {
+    uint64_t scene_hash;
+    uint64_t gip_fingerprint;
+    gi_hvds_opts opts;
+
+    /* octree (for statistics and debugging; relight needs only the keys) */
+    uint32_t num_nodes;
+    float root_min[3], root_size;
+    uint32_t cells_per_level[GI_HVDS_MAX_DEPTH + 1];
+    uint32_t depth;          /* deepest level in use */
+
+    /* keys */
+    uint32_t num_keys;
+    uint32_t *key_parent;    /* parent key or GI_HVDS_NO_KEY */
+    float *key_scale;        /* radiance per unit flux: 1 / (pi A) for diffuse keys (1/(m^2 sr)) */
+    uint8_t *key_level;
+
+    /* photon vertex -> finest key (GI_HVDS_NO_KEY: not stored) */
+    uint64_t num_photons;
+    uint32_t *photon_key;
+
+    /* gathering points and rays */
+    uint32_t num_gpoints;
+    gi_gpoint *gpoints;
+    uint32_t num_pairs;
+    uint32_t *pair_key;
+    uint16_t *pair_count;
+    uint64_t num_rays;       /* gathering rays traced (= num_gpoints * gather_rays) */
+    uint64_t rays_descended; /* rays moved to finer cells by the occlusion check */
+} gi_hvds;
+
+int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_t gip_fingerprint,
+                  const gi_hvds_opts *opts, int threads, gi_hvds **out, gi_status *st);
+int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, const char *gip_path,
+                  gi_status *st);
+int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, uint64_t num_photons,
+                 gi_hvds **out, gi_status *st);
+void gi_hvds_free(gi_hvds *h);
+
+/* Normal bin (0..25) of a unit normal: nearest of the 26 directions of a cube's
+ * faces, edges and corners. Opposite normals never share a bin. */
+int gi_hvds_normal_bin(const float n[3]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,283 @@
+/* gi_relight.c - object-space relighting: lights -> entry points -> photons ->
+ * HVDS keys -> gathering points. */
+#define _POSIX_C_SOURCE 200809L
+#include "gi_relight.h"
+
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gi_brdf.h"
+#include "gi_light.h"
+#include "gi_log.h"
+#include "gi_math.h"
+#include "gi_rng.h"
+
+struct gi_relight {
+    const gi_scene *s;
+    const gi_rt *rt;
+    const gi_gip *gip;
+    const gi_hvds *h;
+    int threads;
+    uint64_t seed;
+    const gi_material *mats;
+    float *refl;          /* 3 per photon vertex: R_k (vertex 0: unused) */
+    float *entry_pos;     /* 3 per entry */
+    float *entry_nrm;     /* 3 per entry */
+    float *flux;          /* 3 per photon vertex: outgoing flux */
+    float *key_flux;      /* 3 per key */
+    uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
+    uint32_t *key_photon;
+    float *gp_e;          /* 3 per gathering point */
+    gi_relight_times times;
+};
+
+static int alloc_all(gi_relight *r)
+{
+    uint64_t P = r->gip->num_photons, E = r->gip->num_entries, K = r->h->num_keys;
+    r->refl = calloc(3 * P + 3, sizeof *r->refl);
+    r->flux = calloc(3 * P + 3, sizeof *r->flux);
+    r->entry_pos = malloc((3 * E + 3) * sizeof *r->entry_pos);
+    r->entry_nrm = malloc((3 * E + 3) * sizeof *r->entry_nrm);
+    r->key_flux = calloc(3 * K + 3, sizeof *r->key_flux);
+    r->key_start = calloc(K + 2, sizeof *r->key_start);
+    r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
+    r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
+    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->key_flux && r->key_start &&
+                   r->key_photon && r->gp_e
+               ? 0
+               : -1;
+}
+
+int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const gi_hvds *h, int threads,
+                   uint64_t seed, gi_relight **out, gi_status *st)
+{
+    *out = NULL;
+    if (h->num_photons != gip->num_photons)
+        return gi_status_set(st, GI_EXIT_DATA, "the .gih maps %llu photons but the .gip has %llu",
+                             (unsigned long long)h->num_photons, (unsigned long long)gip->num_photons);
+    gi_relight *r = calloc(1, sizeof *r);
+    if (!r)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+    r->s = s;
+    r->rt = rt;
+    r->gip = gip;
+    r->h = h;
+    r->threads = threads > 0 ? threads : omp_get_num_procs();
+    r->seed = seed;
+    if (alloc_all(r)) {
+        gi_relight_free(r);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %llu photons",
+                             (unsigned long long)gip->num_photons);
+    }
+    for (uint32_t e = 0; e < gip->num_entries; e++)
+        gi_gip_vertex(gip, s, gip->path_start[e], r->entry_pos + 3 * (size_t)e, r->entry_nrm + 3 * (size_t)e);
+    /* CSR of photons by key, in photon order (deterministic sums) */
+    uint64_t P = gip->num_photons;
+    uint32_t K = h->num_keys;
+    for (uint64_t p = 0; p < P; p++)
+        if (h->photon_key[p] != GI_HVDS_NO_KEY)
+            r->key_start[h->photon_key[p] + 1]++;
+    for (uint32_t k = 0; k < K; k++)
+        r->key_start[k + 1] += r->key_start[k];
+    uint64_t *fill = malloc((K + 1) * sizeof *fill);
+    if (!fill) {
+        gi_relight_free(r);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+    }
+    memcpy(fill, r->key_start, (K + 1) * sizeof *fill);
+    for (uint64_t p = 0; p < P; p++)
+        if (h->photon_key[p] != GI_HVDS_NO_KEY)
+            r->key_photon[fill[h->photon_key[p]]++] = (uint32_t)p;
+    free(fill);
+    *out = r;
+    return 0;
+}
+
+void gi_relight_free(gi_relight *r)
+{
+    if (!r)
+        return;
+    free(r->refl);
+    free(r->flux);
+    free(r->entry_pos);
+    free(r->entry_nrm);
+    free(r->key_flux);
+    free(r->key_start);
+    free(r->key_photon);
+    free(r->gp_e);
+    free(r);
+}
+
+/* Base colour at photon vertex i (texture applied). */
+static gi_vec3 vertex_base(const gi_relight *r, const gi_material *m, uint64_t i)
+{
+    const gi_scene *s = r->s;
+    uint32_t t = r->gip->tri[i];
+    float u = r->gip->bary[2 * i], v = r->gip->bary[2 * i + 1], w = 1.0f - u - v;
+    const uint32_t *ix = s->indices + 3 * (size_t)t;
+    float uv0[2], uv1[2];
+    for (int k = 0; k < 2; k++) {
+        uv0[k] = w * s->uv0[2 * ix[0] + k] + u * s->uv0[2 * ix[1] + k] + v * s->uv0[2 * ix[2] + k];
+        uv1[k] = w * s->uv1[2 * ix[0] + k] + u * s->uv1[2 * ix[1] + k] + v * s->uv1[2 * ix[2] + k];
+    }
+    float rgb[3];
+    gi_scene_base_color(s, m, uv0, uv1, rgb);
+    return gi_v3p(rgb);
+}
+
+int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsigned char *changed,
+                             gi_status *st)
+{
+    double t0 = gi_now();
+    r->mats = mats;
+    const gi_gip *g = r->gip;
+    const gi_scene *s = r->s;
+    if (!changed && r->s->num_materials > 0 &&
+        !memcmp(mats, s->materials, s->num_materials * sizeof *mats)) {
+        /* the scene's own materials: the compact section already holds R_k */
+        for (uint64_t i = 0; i < g->num_photons; i++)
+            gi_rgb9e5_unpack(g->refl[i], r->refl + 3 * i);
+        r->times.materials = gi_now() - t0;
+        return 0;
+    }
+#pragma omp parallel for schedule(dynamic, 256) num_threads(r->threads)
+    for (uint32_t e = 0; e < g->num_entries; e++) {
+        for (uint64_t i = g->path_start[e] + 1; i < g->path_start[e + 1]; i++) {
+            uint32_t mi = s->tri_material[g->tri[i]];
+            if (changed && !changed[mi])
+                continue;
+            const gi_material *m = &mats[mi];
+            float pos[3], nrm[3];
+            gi_gip_vertex(g, s, i, pos, nrm);
+            gi_bsdf b;
+            gi_bsdf_init(&b, m, vertex_base(r, m, i));
+            gi_vec3 n = gi_v3p(nrm), wi = gi_v3p(g->w_in + 3 * i), wo = gi_v3p(g->w_out + 3 * i);
+            gi_vec3 f = gi_bsdf_eval(&b, n, wi, wo);
+            float cosv = fmaxf(gi_dot(n, wo), 0.0f);
+            float q = (float)g->q[i] / 255.0f;
+            float denom = g->pdf[i] * q;
+            gi_vec3 R = denom > 0.0f ? gi_scale(f, cosv / denom) : gi_v3(0, 0, 0);
+            gi_v3store(r->refl + 3 * i, R);
+        }
+    }
+    r->times.materials = gi_now() - t0;
+    (void)st;
+    return 0;
+}
+
+int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int area_samples, gi_status *st)
+{
+    if (!r->mats)
+        return gi_status_set(st, GI_EXIT_USAGE, "gi_relight_set_materials must come first");
+    const gi_gip *g = r->gip;
+    const gi_scene *s = r->s;
+    const gi_hvds *h = r->h;
+    if (area_samples < 1)
+        area_samples = 1;
+    int ks = (int)ceilf(sqrtf((float)area_samples));
+    double t0 = gi_now();
+    /* 1. entry points: flux leaving each entry point along its path */
+#pragma omp parallel for schedule(dynamic, 512) num_threads(r->threads)
+    for (uint32_t e = 0; e < g->num_entries; e++) {
+        gi_rt_thread_init();
+        uint64_t v0 = g->path_start[e];
+        gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
+        const gi_material *m = &r->mats[s->tri_material[g->tri[v0]]];
+        gi_bsdf b;
+        gi_bsdf_init(&b, m, gi_v3p(g->entry_base + 3 * (size_t)e));
+        gi_vec3 wo = gi_v3p(g->w_out + 3 * v0);
+        float coso = fmaxf(gi_dot(nn, wo), 0.0f);
+        float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);
+        gi_vec3 sum = gi_v3(0, 0, 0);
+        if (denom > 0.0f && coso > 0.0f) {
+            for (size_t l = 0; l < n; l++) {
+                const gi_light *L = &lights[l];
+                if (!L->enabled)
+                    continue;
+                int ns = L->type == GI_LIGHT_AREA ? ks * ks : 1;
+                gi_rng rng;
+                gi_rng_seed(&rng, r->seed, e, l);
+                gi_vec3 acc = gi_v3(0, 0, 0);
+                for (int j = 0; j < ns; j++) {
+                    float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
+                    float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
+                    gi_light_sample ls;
+                    if (!gi_light_sample_at(L, x, u1, u2, &ls))
+                        continue;
+                    float cosi = gi_dot(nn, ls.wi);
+                    if (cosi <= 0.0f)
+                        continue;
+                    gi_vec3 o = gi_rt_offset(x, nn, ls.wi);
+                    float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+                    if (gi_rt_occluded(r->rt, o, ls.wi, 0.0f, tmax))
+                        continue;
+                    gi_vec3 f = gi_bsdf_eval(&b, nn, ls.wi, wo);
+                    acc = gi_add(acc, gi_scale(gi_mul(ls.value, f), cosi));
+                }
+                sum = gi_add(sum, gi_scale(acc, 1.0f / (float)ns));
+            }
+        }
+        /* Phi_0 = dA * E * R_0, with E R_0 = integral L f cos_i * cos_o / (pdf q) */
+        gi_v3store(r->flux + 3 * v0, gi_scale(sum, g->entry_dA[e] * coso / fmaxf(denom, 1e-30f)));
+    }
+    double t1 = gi_now();
+    /* 2. along the paths */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
+    for (uint32_t e = 0; e < g->num_entries; e++) {
+        for (uint64_t i = g->path_start[e] + 1; i < g->path_start[e + 1]; i++)
+            for (int c = 0; c < 3; c++)
+                r->flux[3 * i + c] = r->flux[3 * (i - 1) + c] * r->refl[3 * i + c];
+    }
+    double t2 = gi_now();
+    /* 3. keys: sum of their photons, then up the hierarchy (parents after children) */
+    uint32_t K = h->num_keys;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
+    for (uint32_t k = 0; k < K; k++) {
+        double a[3] = {0, 0, 0};
+        for (uint64_t j = r->key_start[k]; j < r->key_start[k + 1]; j++) {
+            const float *f = r->flux + 3 * (size_t)r->key_photon[j];
+            a[0] += f[0];
+            a[1] += f[1];
+            a[2] += f[2];
+        }
+        r->key_flux[3 * k] = (float)a[0];
+        r->key_flux[3 * k + 1] = (float)a[1];
+        r->key_flux[3 * k + 2] = (float)a[2];
+    }
+    for (uint32_t k = 0; k < K; k++) {
+        uint32_t p = h->key_parent[k];
+        if (p == GI_HVDS_NO_KEY)
+            continue;
+        for (int c = 0; c < 3; c++)
+            r->key_flux[3 * (size_t)p + c] += r->key_flux[3 * (size_t)k + c];
+    }
+    double t3 = gi_now();
+    /* 4. gathering points: E = sum over rays of L(key) * pi / N, L = flux * scale */
+    float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
+#pragma omp parallel for schedule(static) num_threads(r->threads)
+    for (uint32_t i = 0; i < h->num_gpoints; i++) {
+        const gi_gpoint *gp = &h->gpoints[i];
+        double a[3] = {0, 0, 0};
+        for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
+            uint32_t k = h->pair_key[j];
+            double sc = (double)h->pair_count[j] * h->key_scale[k];
+            a[0] += sc * r->key_flux[3 * (size_t)k];
+            a[1] += sc * r->key_flux[3 * (size_t)k + 1];
+            a[2] += sc * r->key_flux[3 * (size_t)k + 2];
+        }
+        r->gp_e[3 * i] = (float)(a[0] * w);
+        r->gp_e[3 * i + 1] = (float)(a[1] * w);
+        r->gp_e[3 * i + 2] = (float)(a[2] * w);
+    }
+    double t4 = gi_now();
+    r->times.entry = t1 - t0;
+    r->times.photons = t2 - t1;
+    r->times.hvds = t3 - t2;
+    r->times.gather = t4 - t3;
+    return 0;
+}
+
+const float *gi_relight_gpoint_irradiance(const gi_relight *r) { return r->gp_e; }
+const float *gi_relight_key_flux(const gi_relight *r) { return r->key_flux; }
+const gi_relight_times *gi_relight_times_last(const gi_relight *r) { return &r->times; }

@@ -1,0 +1,56 @@
+/* gi_relight.h - the object-space half of a relight frame (paper §6, steps
+ * 1-4 of docs/pipeline.md): entry-point flux from the frame's lights, photon
+ * flux along the precomputed paths, accumulation into the HVDS keys and up the
+ * hierarchy, and the indirect irradiance at every gathering point.
+ *
+ * Call order: gi_relight_new (borrows scene, ray tracer, .gip and .gih, which
+ * must outlive it), gi_relight_set_materials (all materials the first time,
+ * then only the changed ones), gi_relight_set_lights (every light change),
+ * gi_relight_gpoint_irradiance, gi_relight_free. Deterministic for any thread
+ * count: per-entry random numbers are seeded by (seed, entry, light). */
+#ifndef GI_RELIGHT_H
+#define GI_RELIGHT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gi_gip.h"
+#include "gi_hvds.h"
+#include "gi_rt.h"
+#include "gi_scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct gi_relight gi_relight;
+
+typedef struct gi_relight_times {
+    double entry;     /* entry-point flux from the lights (s) */
+    double photons;   /* flux along the paths */
+    double hvds;      /* accumulation into keys and up the hierarchy */
+    double gather;    /* irradiance at gathering points */
+    double materials; /* reflectance recomputation after a material change */
+} gi_relight_times;
+
+int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const gi_hvds *h, int threads,
+                   uint64_t seed, gi_relight **out, gi_status *st);
+void gi_relight_free(gi_relight *r);
+/* Recompute reflectance factors of photons on materials whose flag is set
+ * (changed == NULL: all). mats: one per scene material (a frame's copy). */
+int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsigned char *changed,
+                             gi_status *st);
+/* Lights of the frame (disabled ones are skipped); area lights get
+ * `area_samples` jittered samples per entry point. Runs steps 1-4. */
+int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int area_samples,
+                          gi_status *st);
+/* Indirect irradiance (lux, RGB) at each gathering point: 3 floats per point. */
+const float *gi_relight_gpoint_irradiance(const gi_relight *r);
+/* Flux (RGB) accumulated in each key (after set_lights). */
+const float *gi_relight_key_flux(const gi_relight *r);
+const gi_relight_times *gi_relight_times_last(const gi_relight *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,60 @@
+/* gi_shade.h - the screen-space half of a relight frame: surfaces from the
+ * OSMesa G-buffer, direct light with exact (Embree) shadows, area lights by
+ * stratified jittered samples (Fournier-Peroche style), and indirect light
+ * interpolated per pixel from the gathering points' irradiance with
+ * irradiance-cache weights, times the surface's reflectance.
+ *
+ * Call order: gi_shade_new (builds a spatial grid of the gathering points),
+ * gi_shade_frame per frame, gi_shade_free. The G-buffer is rasterised again
+ * only when the camera or size changes. Output: linear cd/m^2, RGB, row 0 at
+ * the top. Same BRDF and light code as the reference path tracer. */
+#ifndef GI_SHADE_H
+#define GI_SHADE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gi_gbuffer.h"
+#include "gi_hvds.h"
+#include "gi_rt.h"
+#include "gi_scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct gi_shade gi_shade;
+
+typedef struct gi_shade_opts {
+    int area_samples;   /* jittered samples per area light per pixel sample (default 16) */
+    int ss;             /* ss x ss G-buffer samples per pixel (default 1: pixel centre) */
+    int direct;         /* include direct light (default 1) */
+    int indirect;       /* include interpolated indirect light (default 1) */
+    uint64_t seed;
+    int threads;
+} gi_shade_opts;
+
+typedef struct gi_shade_times {
+    double gbuffer;     /* rasterisation + read-back (0 when reused) */
+    double direct;      /* direct light */
+    double splat;       /* indirect interpolation ("splatting") and composition */
+} gi_shade_times;
+
+void gi_shade_opts_default(gi_shade_opts *o);
+int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade **out, gi_status *st);
+void gi_shade_free(gi_shade *sh);
+/* Render one frame into rgb (3 floats per pixel). gp_irradiance: 3 floats per
+ * gathering point (gi_relight_gpoint_irradiance). */
+int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
+                   const gi_light *lights, size_t num_lights, const gi_material *mats,
+                   const float *gp_irradiance, const gi_shade_opts *o, float *rgb,
+                   gi_shade_times *times, gi_status *st);
+/* Interpolated indirect irradiance (lux, RGB) at surface point p with
+ * oriented normal n; 0 if no gathering point is near. For tests and tools. */
+void gi_shade_irradiance_at(const gi_shade *sh, const float *gp_irradiance, const float p[3],
+                            const float n[3], float e[3]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,353 @@
+/* test_hvds.c - the HVDS against light leaking (two rooms sharing a 1 cm
+ * wall), the occlusion error of coarse levels (paper §9, Fig. 12), the
+ * accuracy of gathering-point irradiance against the path tracer, and
+ * reproducible bytes for any thread count. */
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gi_gltf_write.h"
+#include "gi_hvds.h"
+#include "gi_log.h"
+#include "gi_math.h"
+#include "gi_photon.h"
+#include "gi_pt.h"
+#include "gi_relight.h"
+#include "gi_rt.h"
+#include "gi_scene.h"
+
+static char g_dir[256];
+
+typedef struct pipe {
+    gi_scene *s;
+    gi_rt *rt;
+    gi_gip *gip;
+    gi_hvds *h;
+    gi_relight *rl;
+} pipe;
+
+static void pipe_scene(pipe *p, gi_gltf_builder *b, const char *name)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s.gltf", g_dir, name);
+    gi_status st = {0};
+    assert_int_equal(gi_gltf_builder_write(b, path, &st), 0);
+    gi_gltf_builder_free(b);
+    assert_int_equal(gi_scene_load(path, &p->s, &st), 0);
+    assert_int_equal(gi_rt_new(p->s, &p->rt, &st), 0);
+}
+
+static void pipe_build(pipe *p, uint64_t photons, const gi_hvds_opts *ho, int threads)
+{
+    gi_status st = {0};
+    gi_gip_opts go;
+    gi_gip_opts_default(&go);
+    go.photons = photons;
+    if (!p->gip)
+        assert_int_equal(gi_photon_precompute(p->s, p->rt, &go, 2, &p->gip, &st), 0);
+    if (gi_hvds_build(p->s, p->rt, p->gip, 1234, ho, threads, &p->h, &st))
+        fail_msg("hvds build: %s", st.msg);
+}
+
+static void pipe_light(pipe *p, const gi_light *l, size_t n)
+{
+    gi_status st = {0};
+    gi_relight_free(p->rl);
+    p->rl = NULL;
+    assert_int_equal(gi_relight_new(p->s, p->rt, p->gip, p->h, 2, 1, &p->rl, &st), 0);
+    assert_int_equal(gi_relight_set_materials(p->rl, p->s->materials, NULL, &st), 0);
+    assert_int_equal(gi_relight_set_lights(p->rl, l, n, 4, &st), 0);
+}
+
+static void pipe_free_hvds(pipe *p)
+{
+    gi_relight_free(p->rl);
+    p->rl = NULL;
+    gi_hvds_free(p->h);
+    p->h = NULL;
+}
+
+static void pipe_free(pipe *p)
+{
+    pipe_free_hvds(p);
+    gi_gip_free(p->gip);
+    gi_rt_free(p->rt);
+    gi_scene_free(p->s);
+}
+
+static gi_light point(float x, float y, float z, float cd)
+{
+    gi_light l;
+    memset(&l, 0, sizeof l);
+    strcpy(l.name, "key");
+    l.type = GI_LIGHT_POINT;
+    l.enabled = 1;
+    l.color[0] = l.color[1] = l.color[2] = 1.0f;
+    l.intensity = cd;
+    l.position[0] = x;
+    l.position[1] = y;
+    l.position[2] = z;
+    return l;
+}
+
+/* Two rooms [0,1] and [1.01,2.01] along x sharing a 1 cm wall; one floor
+ * quad runs under both (the hard case: the same plane on both sides). */
+static gi_gltf_builder *two_rooms(void)
+{
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float white[3] = {0.7f, 0.7f, 0.7f};
+    int m = gi_gltf_add_material(b, "white", white, 1.0f, 0.0f, NULL, 0);
+    float lo[3] = {0, 0, 0}, hi[3] = {2.01f, 1, 1};
+    gi_gltf_add_box(b, lo, hi, m, 1);
+    float wlo[3] = {1.0f, 0, 0}, whi[3] = {1.01f, 1, 1};
+    gi_gltf_add_box(b, wlo, whi, m, 0);
+    return b;
+}
+
+static void test_thin_wall_no_leak(void **state)
+{
+    (void)state;
+    pipe p = {0};
+    pipe_scene(&p, two_rooms(), "two_rooms");
+    gi_light l = point(0.5f, 0.7f, 0.5f, 10.0f);
+    gi_hvds_opts ho;
+    gi_hvds_opts_default(&ho);
+    ho.gather_rays = 64;
+    pipe_build(&p, 200000, &ho, 2);
+    pipe_light(&p, &l, 1);
+    const float *e = gi_relight_gpoint_irradiance(p.rl);
+    double lit = 0.0, dark = 0.0;
+    uint32_t nlit = 0, ndark = 0;
+    for (uint32_t i = 0; i < p.h->num_gpoints; i++) {
+        const gi_gpoint *g = &p.h->gpoints[i];
+        double y = gi_luminance(gi_v3p(e + 3 * i));
+        if (g->pos[0] > 1.011f) {
+            dark = fmax(dark, y);
+            ndark++;
+        } else if (g->pos[0] < 0.999f) {
+            lit += y;
+            nlit++;
+        }
+    }
+    print_message("thin wall: %u points in the lit room (mean indirect %.4g lux), %u in the dark room "
+                  "(max %.4g lux)\n", nlit, lit / nlit, ndark, dark);
+    assert_true(nlit > 50 && ndark > 50);
+    assert_true(lit / nlit > 0.1);
+    assert_true(dark == 0.0);
+    pipe_free_hvds(&p);
+
+    /* the same HVDS without the leak and occlusion checks does leak: the test can fail */
+    ho.leak_check = 0;
+    ho.occlusion_check = 0;
+    ho.cell_photons = 400.0f;
+    pipe_build(&p, 0, &ho, 2);
+    pipe_light(&p, &l, 1);
+    e = gi_relight_gpoint_irradiance(p.rl);
+    dark = 0.0;
+    for (uint32_t i = 0; i < p.h->num_gpoints; i++)
+        if (p.h->gpoints[i].pos[0] > 1.011f)
+            dark = fmax(dark, gi_luminance(gi_v3p(e + 3 * i)));
+    print_message("thin wall without the checks: max %.4g lux in the dark room\n", dark);
+    assert_true(dark > 0.0);
+    pipe_free(&p);
+}
+
+/* Reference indirect irradiance at points: total minus direct, path traced. */
+static void reference_indirect(pipe *p, const gi_light *l, size_t nl, const float *pts, size_t n, int spp,
+                               double *ind, double *se)
+{
+    gi_pt_opts o;
+    gi_pt_opts_default(&o);
+    o.progress = 0;
+    o.seed = 99;
+    gi_pt *pt = NULL;
+    gi_status st = {0};
+    assert_int_equal(gi_pt_new(p->rt, l, nl, p->s->materials, p->s->num_materials, &o, &pt, &st), 0);
+    double *tot = malloc(n * sizeof *tot), *tse = malloc(n * sizeof *tse), *dir = malloc(n * sizeof *dir),
+           *dse = malloc(n * sizeof *dse);
+    assert_int_equal(gi_pt_sensors(pt, pts, n, spp, tot, tse, &st), 0);
+    gi_pt_free(pt);
+    o.max_bounces = 0;
+    assert_int_equal(gi_pt_new(p->rt, l, nl, p->s->materials, p->s->num_materials, &o, &pt, &st), 0);
+    assert_int_equal(gi_pt_sensors(pt, pts, n, 4, dir, dse, &st), 0);
+    gi_pt_free(pt);
+    for (size_t i = 0; i < n; i++) {
+        ind[i] = tot[i] - dir[i];
+        se[i] = sqrt(tse[i] * tse[i] + dse[i] * dse[i]);
+    }
+    free(tot);
+    free(tse);
+    free(dir);
+    free(dse);
+}
+
+/* Relative rms error of the gathering points' indirect irradiance (luminance)
+ * against the reference, over points selected by `sel` (NULL: all), at most 96. */
+static double gpoint_error(pipe *p, const gi_light *l, size_t nl, int (*sel)(const gi_gpoint *), int spp,
+                           size_t *count)
+{
+    const float *e = gi_relight_gpoint_irradiance(p->rl);
+    size_t n = 0, cap = 96;
+    float *pts = malloc(cap * 6 * sizeof *pts);
+    uint32_t *idx = malloc(cap * sizeof *idx);
+    uint32_t step = p->h->num_gpoints / 400 + 1;
+    for (uint32_t i = 0; i < p->h->num_gpoints && n < cap; i += (sel ? 1 : step)) {
+        const gi_gpoint *g = &p->h->gpoints[i];
+        if (sel && !sel(g))
+            continue;
+        memcpy(pts + 6 * n, g->pos, 3 * sizeof(float));
+        memcpy(pts + 6 * n + 3, g->nrm, 3 * sizeof(float));
+        idx[n++] = i;
+    }
+    double *ref = malloc((n + 1) * sizeof *ref), *se = malloc((n + 1) * sizeof *se);
+    reference_indirect(p, l, nl, pts, n, spp, ref, se);
+    double num = 0.0, den = 0.0;
+    for (size_t k = 0; k < n; k++) {
+        double y = gi_luminance(gi_v3p(e + 3 * idx[k]));
+        num += (y - ref[k]) * (y - ref[k]);
+        den += ref[k] * ref[k];
+    }
+    free(pts);
+    free(idx);
+    free(ref);
+    free(se);
+    *count = n;
+    return den > 0.0 ? sqrt(num / den) : 0.0;
+}
+
+/* A shelf over the floor: from the ceiling, a coarse cell holds the lit shelf
+ * top and the shadowed floor under it (same normal), which it must not mix. */
+static int above_shelf(const gi_gpoint *g)
+{
+    return g->pos[1] > 1.9f && g->nrm[1] < -0.9f;
+}
+
+static void test_coarse_level_occlusion(void **state)
+{
+    (void)state;
+    pipe p = {0};
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float white[3] = {0.75f, 0.75f, 0.75f};
+    int m = gi_gltf_add_material(b, "white", white, 1.0f, 0.0f, NULL, 0);
+    float lo[3] = {0, 0, 0}, hi[3] = {2, 2, 2};
+    gi_gltf_add_box(b, lo, hi, m, 1);
+    float slo[3] = {0.05f, 0.2f, 0.05f}, shi[3] = {1.95f, 0.22f, 1.95f};
+    gi_gltf_add_box(b, slo, shi, m, 0);
+    pipe_scene(&p, b, "shelf");
+    gi_light l = point(1.0f, 1.0f, 1.0f, 20.0f);
+    gi_hvds_opts ho;
+    gi_hvds_opts_default(&ho);
+    ho.gather_rays = 64;
+    ho.cell_photons = 64.0f;
+    ho.r_max = 0.1f;
+    pipe_build(&p, 400000, &ho, 2);
+    pipe_light(&p, &l, 1);
+    size_t n1, n2;
+    double err_on = gpoint_error(&p, &l, 1, above_shelf, 2048, &n1);
+    uint64_t desc = p.h->rays_descended;
+    pipe_free_hvds(&p);
+    ho.occlusion_check = 0;
+    pipe_build(&p, 0, &ho, 2);
+    pipe_light(&p, &l, 1);
+    double err_off = gpoint_error(&p, &l, 1, above_shelf, 2048, &n2);
+    print_message("shelf: %llu rays descended; indirect error above the shelf %.2f%% with the occlusion "
+                  "check, %.2f%% without (%zu points)\n", (unsigned long long)desc, 100 * err_on, 100 * err_off, n1);
+    assert_true(n1 >= 8);
+    assert_true(desc > 0);
+    assert_true(err_on < err_off);
+    pipe_free(&p);
+}
+
+static void test_cornell_like_accuracy_and_bytes(void **state)
+{
+    (void)state;
+    pipe p = {0};
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float white[3] = {0.73f, 0.73f, 0.73f}, red[3] = {0.63f, 0.065f, 0.05f}, green[3] = {0.14f, 0.45f, 0.09f};
+    int mw = gi_gltf_add_material(b, "white", white, 1.0f, 0.0f, NULL, 1);
+    int mr = gi_gltf_add_material(b, "red", red, 1.0f, 0.0f, NULL, 1);
+    int mg = gi_gltf_add_material(b, "green", green, 1.0f, 0.0f, NULL, 1);
+    float A[3] = {0, 0, 0}, B[3] = {1, 0, 0}, C[3] = {1, 0, 1}, D[3] = {0, 0, 1};
+    float E[3] = {0, 1, 0}, F[3] = {1, 1, 0}, G[3] = {1, 1, 1}, H[3] = {0, 1, 1};
+    gi_gltf_add_quad(b, A, D, C, B, mw); /* floor */
+    gi_gltf_add_quad(b, E, F, G, H, mw); /* ceiling */
+    gi_gltf_add_quad(b, D, H, G, C, mw); /* back */
+    gi_gltf_add_quad(b, A, E, H, D, mr); /* left */
+    gi_gltf_add_quad(b, B, C, G, F, mg); /* right */
+    float blo[3] = {0.2f, 0, 0.5f}, bhi[3] = {0.45f, 0.5f, 0.75f};
+    gi_gltf_add_box(b, blo, bhi, mw, 0);
+    pipe_scene(&p, b, "cornell_like");
+    gi_light l = point(0.5f, 0.9f, 0.5f, 2.0f);
+    gi_hvds_opts ho;
+    gi_hvds_opts_default(&ho);
+    ho.gather_rays = 144;
+    pipe_build(&p, 300000, &ho, 1);
+    char p1[512], p2[512];
+    snprintf(p1, sizeof p1, "%s/a.gih", g_dir);
+    snprintf(p2, sizeof p2, "%s/b.gih", g_dir);
+    gi_status st = {0};
+    assert_int_equal(gi_hvds_write(p.h, p1, "scene", "gip", &st), 0);
+    pipe_light(&p, &l, 1);
+    size_t n;
+    double err = gpoint_error(&p, &l, 1, NULL, 1024, &n);
+    print_message("box: %u gathering points, %u keys, depth %u; indirect irradiance error at %zu points: "
+                  "%.2f%% (relative rms)\n", p.h->num_gpoints, p.h->num_keys, p.h->depth, n, 100 * err);
+    assert_true(err < 0.15);
+    /* two threads: identical bytes */
+    pipe_free_hvds(&p);
+    pipe_build(&p, 0, &ho, 2);
+    assert_int_equal(gi_hvds_write(p.h, p2, "scene", "gip", &st), 0);
+    FILE *fa = fopen(p1, "rb"), *fb = fopen(p2, "rb");
+    assert_non_null(fa);
+    assert_non_null(fb);
+    int same = 1, ca, cb;
+    do {
+        ca = fgetc(fa);
+        cb = fgetc(fb);
+        same &= ca == cb;
+    } while (ca != EOF && cb != EOF);
+    fclose(fa);
+    fclose(fb);
+    assert_true(same);
+    /* reading back: accepted with the right .gip fingerprint, refused with another */
+    gi_hvds *h2 = NULL;
+    assert_int_equal(gi_hvds_read(p1, p.s, 1234, p.gip->num_photons, &h2, &st), 0);
+    assert_int_equal(h2->num_keys, p.h->num_keys);
+    assert_int_equal(h2->num_pairs, p.h->num_pairs);
+    gi_hvds_free(h2);
+    assert_int_equal(gi_hvds_read(p1, p.s, 4321, p.gip->num_photons, &h2, &st), GI_EXIT_DATA);
+    assert_non_null(strstr(st.msg, "gip"));
+    pipe_free(&p);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    gi_log_set_verbosity(-1);
+    snprintf(g_dir, sizeof g_dir, "/tmp/gi_test_hvds.XXXXXX");
+    return mkdtemp(g_dir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_thin_wall_no_leak),
+        cmocka_unit_test(test_coarse_level_occlusion),
+        cmocka_unit_test(test_cornell_like_accuracy_and_bytes),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
