@@ -121,21 +121,39 @@ void gi_gip_oct_encode(const float v[3], int16_t e[2])
         return;
     }
     /* Of the four roundings around the exact point, keep the one that decodes
-     * closest to v (Cigolle et al. 2014, "precise" encoding). */
+     * closest to v (Cigolle et al. 2014, "precise" encoding). The candidates
+     * differ by ~1e-9 in their cosine, below float resolution, so they are
+     * compared by the sine of the angle, in double. */
+    double vx = v[0], vy = v[1], vz = v[2];
+    double vl = sqrt(vx * vx + vy * vy + vz * vz);
+    vx /= vl;
+    vy /= vl;
+    vz /= vl;
     float fx = floorf(x * 32767.0f), fy = floorf(y * 32767.0f);
-    float best = -2.0f;
+    double best = INFINITY;
     e[0] = e[1] = 0;
     for (int i = 0; i < 4; i++) {
         float cx = gi_clampf(fx + (float)(i & 1), -32767.0f, 32767.0f);
         float cy = gi_clampf(fy + (float)(i >> 1), -32767.0f, 32767.0f);
-        int16_t c[2] = {(int16_t)cx, (int16_t)cy};
-        float d[3];
-        gi_gip_oct_decode(c, d);
-        float dot = d[0] * v[0] + d[1] * v[1] + d[2] * v[2];
-        if (dot > best) {
-            best = dot;
-            e[0] = c[0];
-            e[1] = c[1];
+        double px = cx / 32767.0, py = cy / 32767.0, pz = 1.0 - fabs(px) - fabs(py);
+        if (pz < 0.0) {
+            double tx = (1.0 - fabs(py)) * (px >= 0.0 ? 1.0 : -1.0);
+            double ty = (1.0 - fabs(px)) * (py >= 0.0 ? 1.0 : -1.0);
+            px = tx;
+            py = ty;
+        }
+        double pl = sqrt(px * px + py * py + pz * pz);
+        px /= pl;
+        py /= pl;
+        pz /= pl;
+        double sx = py * vz - pz * vy, sy = pz * vx - px * vz, sz = px * vy - py * vx;
+        double sin2 = sx * sx + sy * sy + sz * sz;
+        if (px * vx + py * vy + pz * vz < 0.0)
+            sin2 = 4.0 + sin2; /* the opposite hemisphere: never better */
+        if (sin2 < best) {
+            best = sin2;
+            e[0] = (int16_t)cx;
+            e[1] = (int16_t)cy;
         }
     }
 }

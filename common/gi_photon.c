@@ -122,24 +122,23 @@ int gi_photon_skip_triangle(const gi_scene *s, size_t t)
 
 double gi_photon_skew(const double *counts, const double *hit, int nb)
 {
-    int n = 0;
-    double sum = 0.0, sum2 = 0.0, noise = 0.0;
+    double hsum = 0.0, csum = 0.0;
     for (int b = 0; b < nb; b++) {
         if (!(hit[b] > 0.0))
             continue;
-        double rho = counts[b] / hit[b];
-        sum += rho;
-        sum2 += rho * rho;
-        noise += counts[b] / (hit[b] * hit[b]);
-        n++;
+        hsum += hit[b];
+        csum += counts[b];
     }
-    if (n == 0)
+    if (!(hsum > 0.0))
         return 0.0;
-    double mean = sum / n;
-    if (!(mean > 0.0))
+    if (!(csum > 0.0))
         return INFINITY;
-    double excess = sum2 / n - mean * mean - noise / n;
-    return excess > 0.0 ? sqrt(excess) / mean : 0.0;
+    double rho = csum / hsum, acc = 0.0; /* entries per unit of seen solid angle */
+    for (int b = 0; b < nb; b++)
+        if (hit[b] > 0.0)
+            acc += hit[b] * rho / ((counts[b] + 0.5) / hit[b]);
+    double vif = acc / hsum;
+    return vif > 1.0 ? vif - 1.0 : 0.0;
 }
 
 /* Position and geometric normal on the entry's side. */

@@ -56,10 +56,14 @@ int gi_photon_skip_triangle(const gi_scene *s, size_t t);
 
 /* Skew of a grid point's view of the entry points (condition 2 of paper 5.1):
  * counts[b] visible entries and hit[b] in [0, 1] the share of directions that
- * see a surface, over nb equal-solid-angle bins. It is the coefficient of
- * variation of the entries' density per solid angle of surface seen,
- * count[b] / hit[b], over the bins that see anything, with the Poisson part
- * of the variance taken out; 0 for an even view; INFINITY when surfaces are
+ * see a surface, over nb equal-solid-angle bins. A light at the grid point
+ * emits evenly in angle, so what matters is how the entries' density per
+ * solid angle, rho_b = counts[b] / hit[b], spreads: the skew is the variance
+ * inflation of that density against an even one, minus 1:
+ *   skew = (sum_b hit_b * mean_rho / rho_b) / (sum_b hit_b) - 1
+ * (mean_rho = sum counts / sum hit, counts + 0.5 so an empty bin is finite).
+ * 0 for an even view, 1 for twice the variance, large when some directions
+ * see almost no entries; 0 when nothing is seen, INFINITY when surfaces are
  * seen but no entry is. Exposed for tests. */
 double gi_photon_skew(const double *counts, const double *hit, int nb);
 

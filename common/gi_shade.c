@@ -10,6 +10,7 @@
 #include "gi_light.h"
 #include "gi_log.h"
 #include "gi_math.h"
+#include "gi_pt.h"
 #include "gi_rng.h"
 
 struct gi_shade {
@@ -225,6 +226,9 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     gi_vec3 eye = gi_v3p(cam->position);
     const gi_scene *s = sh->s;
     double tdirect = 0.0;
+    int has_area = 0;
+    for (size_t l = 0; l < num_lights; l++)
+        has_area |= lights[l].enabled && lights[l].type == GI_LIGHT_AREA;
 #pragma omp parallel for schedule(dynamic, 4) num_threads(threads) reduction(+ : tdirect)
     for (int y = 0; y < h; y++) {
         gi_rt_thread_init();
@@ -233,11 +237,31 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             gi_vec3 sum = gi_v3(0, 0, 0);
             for (int k = 0; k < ss * ss; k++) {
                 const gi_gpixel *g = &sh->px[(size_t)k * np + pix];
-                if (!g->tri || g->tri > s->num_triangles)
-                    continue;
-                gi_hit hit = {0.0f, g->tri - 1, g->u, g->v};
+                int has_surface = g->tri && g->tri <= s->num_triangles;
                 gi_surface sf;
-                gi_rt_surface(sh->rt, &hit, &sf);
+                float tsurf = INFINITY;
+                if (has_surface) {
+                    gi_hit hit = {0.0f, g->tri - 1, g->u, g->v};
+                    gi_rt_surface(sh->rt, &hit, &sf);
+                    tsurf = gi_len(gi_sub(sf.p, eye));
+                }
+                if (has_area) {
+                    /* area lights the camera sees directly (they do not hide what is behind) */
+                    float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
+                    gi_vec3 ro, rd;
+                    gi_camera_ray(cam, w, h, (float)x + jx, (float)y + jy, &ro, &rd);
+                    for (size_t l = 0; l < num_lights; l++) {
+                        const gi_light *lt = &lights[l];
+                        int lf;
+                        if (!lt->enabled || lt->type != GI_LIGHT_AREA)
+                            continue;
+                        float tl = gi_area_light_intersect(lt, ro, rd, 0.0f, tsurf * 0.9999f, &lf);
+                        if (tl > 0.0f && lf)
+                            sum = gi_add(sum, gi_scale(gi_v3p(lt->color), lt->intensity));
+                    }
+                }
+                if (!has_surface)
+                    continue;
                 const gi_material *m = &mats[sf.material];
                 gi_vec3 wo = gi_norm(gi_sub(eye, sf.p));
                 int front = gi_dot(sf.ng, wo) > 0.0f;

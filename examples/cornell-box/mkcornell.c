@@ -299,7 +299,7 @@ int main(int argc, char **argv)
     }
     gi_verbose("%d of 15 published quads flipped to face the right way", flips);
 
-    const float lpos[3] = {0.278f, 0.540f, 0.2795f}, lcol[3] = {1.0f, 1.0f, 1.0f};
+    const float lpos[3] = {0.278f, 0.450f, 0.2795f}, lcol[3] = {1.0f, 1.0f, 1.0f};
     gi_gltf_add_point_light(b, "ceiling", lpos, lcol, 2.0f);
     const float cpos[3] = {0.278f, 0.273f, -0.800f}, ctgt[3] = {0.278f, 0.273f, 0.0f};
     const float cup[3] = {0.0f, 1.0f, 0.0f};

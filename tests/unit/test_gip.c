@@ -229,7 +229,7 @@ static void test_rgb9e5(void **state)
     assert_true(fabsf(out[1] - 1e-7f) <= 0.5f * ldexpf(1.0f, -24));
 
     /* accuracy: every channel within half a step of the shared exponent,
-     * i.e. at most max(rgb) * 2^-9 */
+     * i.e. at most max(rgb) * 2^-9, or half the smallest step 2^-24 */
     gi_rng r;
     gi_rng_seed(&r, 5, 0, 0);
     double worst = 0.0;
@@ -242,13 +242,14 @@ static void test_rgb9e5(void **state)
             continue;
         gi_rgb9e5_unpack(gi_rgb9e5_pack(v), out);
         for (int k = 0; k < 3; k++) {
-            double err = fabs((double)out[k] - v[k]) / m;
-            if (err > worst)
-                worst = err;
-            assert_true(err <= 1.0 / 512.0 + 1e-7);
+            double err = fabs((double)out[k] - v[k]);
+            double bound = fmax((double)m / 512.0, ldexp(1.0, -25));
+            if (err / bound > worst)
+                worst = err / bound;
+            assert_true(err <= bound * (1.0 + 1e-6));
         }
     }
-    assert_true(worst > 1e-4); /* the check is not vacuous */
+    assert_true(worst > 0.5); /* the bound is tight: the check is not vacuous */
 }
 
 static void test_octahedral(void **state)
@@ -273,7 +274,7 @@ static void test_octahedral(void **state)
             worst = a;
         assert_true(a < 1e-4);
     }
-    assert_true(worst > 1e-6);
+    assert_true(worst > 1e-5); /* the measurement resolves the quantisation */
     float z[3] = {0, 0, 0};
     int16_t e[2] = {7, 7};
     gi_gip_oct_encode(z, e);
