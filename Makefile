@@ -61,7 +61,7 @@ help:
 # ---- Debian packages --------------------------------------------------------
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev openimageio-tools \
             libosmesa6-dev libtinygltf-dev libcmocka-dev zlib1g-dev gnuplot-nox clang \
-            libclang-rt-14-dev
+            libclang-rt-14-dev python3 bc
 deps:
 	@missing=""; for p in $(DEB_PKGS); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \

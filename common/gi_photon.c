@@ -409,17 +409,18 @@ static size_t trace_path(const ctx *c, const entry *e, gi_rng *rng, vbuf *b, flo
     return b->n - n0;
 }
 
-/* Mean vertices per path of a small deterministic pilot run. */
-static int pilot(const ctx *c, double *mean, gi_status *st)
+/* Mean vertices per path of a small deterministic pilot run, and the
+ * relative standard error of that mean. */
+static int pilot(const ctx *c, double *mean, double *rel_se, gi_status *st)
 {
     const uint32_t n = GI_PHOTON_PILOT_PATHS;
     entry *E = malloc(n * sizeof *E);
     if (!E)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
     make_uniform(c, n, SALT_PILOT, E);
-    uint64_t total = 0;
+    uint64_t total = 0, total2 = 0;
     int oom = 0;
-#pragma omp parallel num_threads(c->threads) reduction(+ : total, oom)
+#pragma omp parallel num_threads(c->threads) reduction(+ : total, total2, oom)
     {
         gi_rt_thread_init();
         vbuf b = {0};
@@ -434,6 +435,7 @@ static int pilot(const ctx *c, double *mean, gi_status *st)
             if (!k)
                 oom = 1;
             total += k;
+            total2 += (uint64_t)k * k;
         }
         free(b.v);
     }
@@ -441,6 +443,8 @@ static int pilot(const ctx *c, double *mean, gi_status *st)
     if (oom)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory in the pilot run");
     *mean = (double)total / n;
+    double var = (double)total2 / n - *mean * *mean;
+    *rel_se = var > 0.0 ? sqrt(var / n) / *mean : 0.0;
     return 0;
 }
 
@@ -727,21 +731,24 @@ int gi_photon_precompute(const gi_scene *s, const gi_rt *rt, const gi_gip_opts *
     size_t nchunks = 0;
     gi_gip *g = NULL;
 
-    double mean = 0.0;
-    if ((rc = pilot(&c, &mean, st)))
+    double mean = 0.0, rel_se = 0.0;
+    if ((rc = pilot(&c, &mean, &rel_se, st)))
         goto done;
-    double want = (double)opts->photons / mean;
+    /* aim GI_PHOTON_PILOT_AIM standard errors above the estimate, so that
+     * --photons is reached nearly always and overshot by ~1% */
+    double want = (double)opts->photons / mean * (1.0 + GI_PHOTON_PILOT_AIM * rel_se);
     if (want > (double)(UINT32_MAX / 2)) {
         rc = gi_status_set(st, GI_EXIT_USAGE,
                            "--photons %" PRIu64 " needs %.0f entry points, more than %u",
                            opts->photons, want, UINT32_MAX / 2);
         goto done;
     }
-    size_t ne = (size_t)llround(want);
+    size_t ne = (size_t)ceil(want);
     if (ne < 1)
         ne = 1;
-    gi_verbose("pilot: %d paths, mean path length %.3f vertices -> %zu entry points (%.2f s)",
-               GI_PHOTON_PILOT_PATHS, mean, ne, gi_now() - t0);
+    gi_verbose("pilot: %d paths, mean path length %.3f vertices (+-%.2f%%) -> %zu entry points "
+               "(%.2f s)",
+               GI_PHOTON_PILOT_PATHS, mean, 100.0 * rel_se, ne, gi_now() - t0);
 
     /* entry points: the uniform set, then the region's batches */
     size_t M = ne, cap = ne + 1;

@@ -25,8 +25,11 @@
 extern "C" {
 #endif
 
-/* Paths of the pilot run that estimates the mean path length. */
-#define GI_PHOTON_PILOT_PATHS 2048
+/* Paths of the pilot run that estimates the mean path length L; the entry
+ * count is photons / L raised by GI_PHOTON_PILOT_AIM relative standard
+ * errors of L, so the photon count reaches --photons in nearly every run. */
+#define GI_PHOTON_PILOT_PATHS 8192
+#define GI_PHOTON_PILOT_AIM 2.0
 /* Triangles below these are skipped (no entry points) and counted:
  * area < (scene bounding-box diagonal * GI_PHOTON_MIN_REL_SIZE)^2, or a sliver
  * with area < GI_PHOTON_SLIVER * (longest edge)^2. */

@@ -13,7 +13,23 @@
 #include "gi_math.h"
 #include "gi_rng.h"
 
+/* Light seen by every entry point, cached per light so that a frame that
+ * moves one light retraces only that light, and a material change retraces
+ * nothing: irradiance E (lux, RGB, with visibility) and the mean incident
+ * direction (exact for point, spot and directional lights). */
+#define GI_RELIGHT_SLOTS 32
+typedef struct light_slot {
+    gi_light light;
+    float *e;          /* 3 per entry */
+    float *dir;        /* 3 per entry */
+    uint64_t last_use; /* frame counter, for eviction */
+    int used;
+} light_slot;
+
 struct gi_relight {
+    light_slot slots[GI_RELIGHT_SLOTS];
+    uint64_t frame;
+    double rays_seconds;
     const gi_scene *s;
     const gi_rt *rt;
     const gi_gip *gip;
@@ -98,6 +114,10 @@ void gi_relight_free(gi_relight *r)
 {
     if (!r)
         return;
+    for (int i = 0; i < GI_RELIGHT_SLOTS; i++) {
+        free(r->slots[i].e);
+        free(r->slots[i].dir);
+    }
     free(r->refl);
     free(r->flux);
     free(r->entry_pos);
@@ -177,12 +197,98 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         area_samples = 1;
     int ks = (int)ceilf(sqrtf((float)area_samples));
     double t0 = gi_now();
-    /* 1. entry points: flux leaving each entry point along its path */
+    /* 1a. light arriving at every entry point, per light, from the cache or traced */
+    r->frame++;
+    int slot_of[GI_RELIGHT_SLOTS];
+    size_t lid[GI_RELIGHT_SLOTS];
+    int nused = 0;
+    int cacheable = 1;
+    {
+        size_t ne = 0;
+        for (size_t l = 0; l < n; l++)
+            ne += lights[l].enabled ? 1 : 0;
+        cacheable = ne <= GI_RELIGHT_SLOTS;
+    }
+    for (size_t l = 0; l < n && cacheable; l++) {
+        if (!lights[l].enabled)
+            continue;
+        int found = -1;
+        for (int k = 0; k < GI_RELIGHT_SLOTS && found < 0; k++)
+            if (r->slots[k].used && !memcmp(&r->slots[k].light, &lights[l], sizeof lights[l]))
+                found = k;
+        if (found < 0) {
+            /* a free slot, or the least recently used one not needed by this frame */
+            uint64_t oldest = UINT64_MAX;
+            for (int k = 0; k < GI_RELIGHT_SLOTS; k++) {
+                if (!r->slots[k].used) {
+                    found = k;
+                    break;
+                }
+                if (r->slots[k].last_use < oldest && r->slots[k].last_use != r->frame) {
+                    oldest = r->slots[k].last_use;
+                    found = k;
+                }
+            }
+            light_slot *sl = &r->slots[found];
+            if (!sl->e) {
+                sl->e = malloc((3 * (size_t)g->num_entries + 3) * sizeof *sl->e);
+                sl->dir = malloc((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir);
+                if (!sl->e || !sl->dir)
+                    return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
+            }
+            sl->light = lights[l];
+            sl->used = 2; /* 2: to be traced */
+        }
+        r->slots[found].last_use = r->frame;
+        slot_of[nused] = found;
+        lid[nused] = l;
+        nused++;
+    }
+    if (!cacheable)
+        return gi_status_set(st, GI_EXIT_USAGE, "more than %d lights are on; gi-relight handles at most %d at once",
+                             GI_RELIGHT_SLOTS, GI_RELIGHT_SLOTS);
+    for (int u = 0; u < nused; u++) {
+        light_slot *sl = &r->slots[slot_of[u]];
+        if (sl->used != 2)
+            continue;
+        const gi_light *L = &sl->light;
+        int ns = L->type == GI_LIGHT_AREA ? ks * ks : 1;
+        size_t l = lid[u];
 #pragma omp parallel for schedule(dynamic, 512) num_threads(r->threads)
+        for (uint32_t e = 0; e < g->num_entries; e++) {
+            gi_rt_thread_init();
+            gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
+            gi_rng rng;
+            gi_rng_seed(&rng, r->seed, e, l);
+            gi_vec3 acc = gi_v3(0, 0, 0), dacc = gi_v3(0, 0, 0);
+            for (int j = 0; j < ns; j++) {
+                float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
+                float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
+                gi_light_sample ls;
+                if (!gi_light_sample_at(L, x, u1, u2, &ls))
+                    continue;
+                float cosi = gi_dot(nn, ls.wi);
+                if (cosi <= 0.0f)
+                    continue;
+                gi_vec3 o = gi_rt_offset(x, nn, ls.wi);
+                float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+                if (gi_rt_occluded(r->rt, o, ls.wi, 0.0f, tmax))
+                    continue;
+                gi_vec3 ev = gi_scale(ls.value, cosi);
+                acc = gi_add(acc, ev);
+                dacc = gi_madd(dacc, ls.wi, gi_luminance(ev) + 1e-30f);
+            }
+            gi_v3store(sl->e + 3 * (size_t)e, gi_scale(acc, 1.0f / (float)ns));
+            gi_v3store(sl->dir + 3 * (size_t)e, gi_norm(dacc));
+        }
+        sl->used = 1;
+    }
+    double t0b = gi_now();
+    /* 1b. flux leaving each entry point along its path: Phi_0 = dA sum_l f(w_l, w_out) E_l cos_o / pdf */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
     for (uint32_t e = 0; e < g->num_entries; e++) {
-        gi_rt_thread_init();
         uint64_t v0 = g->path_start[e];
-        gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
+        gi_vec3 nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
         const gi_material *m = &r->mats[s->tri_material[g->tri[v0]]];
         gi_bsdf b;
         gi_bsdf_init(&b, m, gi_v3p(g->entry_base + 3 * (size_t)e));
@@ -191,36 +297,18 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);
         gi_vec3 sum = gi_v3(0, 0, 0);
         if (denom > 0.0f && coso > 0.0f) {
-            for (size_t l = 0; l < n; l++) {
-                const gi_light *L = &lights[l];
-                if (!L->enabled)
+            for (int u = 0; u < nused; u++) {
+                const light_slot *sl = &r->slots[slot_of[u]];
+                gi_vec3 ev = gi_v3p(sl->e + 3 * (size_t)e);
+                if (gi_maxc(ev) <= 0.0f)
                     continue;
-                int ns = L->type == GI_LIGHT_AREA ? ks * ks : 1;
-                gi_rng rng;
-                gi_rng_seed(&rng, r->seed, e, l);
-                gi_vec3 acc = gi_v3(0, 0, 0);
-                for (int j = 0; j < ns; j++) {
-                    float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
-                    float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
-                    gi_light_sample ls;
-                    if (!gi_light_sample_at(L, x, u1, u2, &ls))
-                        continue;
-                    float cosi = gi_dot(nn, ls.wi);
-                    if (cosi <= 0.0f)
-                        continue;
-                    gi_vec3 o = gi_rt_offset(x, nn, ls.wi);
-                    float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
-                    if (gi_rt_occluded(r->rt, o, ls.wi, 0.0f, tmax))
-                        continue;
-                    gi_vec3 f = gi_bsdf_eval(&b, nn, ls.wi, wo);
-                    acc = gi_add(acc, gi_scale(gi_mul(ls.value, f), cosi));
-                }
-                sum = gi_add(sum, gi_scale(acc, 1.0f / (float)ns));
+                gi_vec3 f = gi_bsdf_eval(&b, nn, gi_v3p(sl->dir + 3 * (size_t)e), wo);
+                sum = gi_add(sum, gi_mul(f, ev));
             }
         }
-        /* Phi_0 = dA * E * R_0, with E R_0 = integral L f cos_i * cos_o / (pdf q) */
         gi_v3store(r->flux + 3 * v0, gi_scale(sum, g->entry_dA[e] * coso / fmaxf(denom, 1e-30f)));
     }
+    r->rays_seconds = t0b - t0;
     double t1 = gi_now();
     /* 2. along the paths */
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)

@@ -1,4 +1,10 @@
-/* gi_shade.c - screen-space shading of relight frames. */
+/* gi_shade.c - screen-space shading of relight frames.
+ *
+ * When the camera (or size) changes, the G-buffer is rasterised and every
+ * pixel sample gets a cached surface record and its irradiance-cache
+ * interpolation weights (up to GI_SHADE_K gathering points). A frame whose
+ * camera did not move only re-evaluates direct light and sums the cached
+ * weights: the "splat" of a light or material change costs a few reads. */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_shade.h"
 
@@ -13,18 +19,34 @@
 #include "gi_pt.h"
 #include "gi_rng.h"
 
+#define GI_SHADE_K 8 /* gathering points kept per pixel sample (largest weights) */
+
+typedef struct ssurf {
+    float p[3], ng[3], ns[3], wo[3];
+    float texel[3];     /* texture value at the point (1 when untextured): base = factor * texel */
+    uint32_t material;
+    float tsurf;        /* distance from the eye (INFINITY: background) */
+    uint8_t valid;      /* 1: a visible, shaded surface */
+    uint8_t npairs;
+    uint32_t gp[GI_SHADE_K];
+    float w[GI_SHADE_K]; /* normalised weights */
+} ssurf;
+
 struct gi_shade {
     const gi_scene *s;
     const gi_rt *rt;
     const gi_hvds *h;
-    /* uniform grid over the gathering points: cell = largest effective radius * reach */
+    float reach;        /* weights reach this many effective radii */
+    /* influence grid: each gathering point is listed in every cell its
+     * influence sphere (reach * radius) touches */
     float gmin[3], cell;
     int gdim[3];
-    uint32_t *gstart;   /* cells + 1 */
-    uint32_t *gidx;
-    float reach;        /* weights reach this many effective radii */
-    /* G-buffer cache */
+    uint32_t *istart, *iidx;
+    /* plain grid (point in its own cell) for the no-weight fallback */
+    uint32_t *pstart, *pidx;
+    /* per-sample cache, valid for pcam / pw x ph / pss */
     gi_gpixel *px;
+    ssurf *sf;
     int pw, ph, pss;
     gi_camera pcam;
     int valid;
@@ -40,6 +62,13 @@ void gi_shade_opts_default(gi_shade_opts *o)
     o->seed = 1;
 }
 
+static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
+static inline size_t cell_index(const gi_shade *sh, int x, int y, int z)
+{
+    return ((size_t)z * (size_t)sh->gdim[1] + (size_t)y) * (size_t)sh->gdim[0] + (size_t)x;
+}
+
 int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade **out, gi_status *st)
 {
     *out = NULL;
@@ -50,65 +79,103 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
     sh->rt = rt;
     sh->h = h;
     sh->reach = 2.0f;
-    float rmax = 0.0f;
-    for (uint32_t i = 0; i < h->num_gpoints; i++)
-        rmax = fmaxf(rmax, h->gpoints[i].radius);
+    uint32_t n = h->num_gpoints;
+    /* cell: a few times the median influence radius, bounded to keep the grid small */
     float ext = 0.0f;
     for (int a = 0; a < 3; a++)
         ext = fmaxf(ext, s->bbox_max[a] - s->bbox_min[a]);
-    sh->cell = fmaxf(sh->reach * rmax, ext * 1e-3f + 1e-6f);
-    size_t cells = 1;
-    for (int a = 0; a < 3; a++) {
-        sh->gmin[a] = s->bbox_min[a] - sh->cell;
-        float span = s->bbox_max[a] - s->bbox_min[a] + 2.0f * sh->cell;
-        sh->gdim[a] = (int)fminf(ceilf(span / sh->cell), 1024.0f);
-        if (sh->gdim[a] < 1)
-            sh->gdim[a] = 1;
-        cells *= (size_t)sh->gdim[a];
-    }
-    /* keep the grid small: coarser cells if there would be too many */
-    while (cells > 8u * 1024u * 1024u) {
-        sh->cell *= 2.0f;
+    double rsum = 0.0;
+    for (uint32_t i = 0; i < n; i++)
+        rsum += h->gpoints[i].radius;
+    float rmean = n ? (float)(rsum / n) : ext;
+    sh->cell = fmaxf(0.5f * sh->reach * rmean, ext * 1e-3f + 1e-6f);
+    size_t cells;
+    for (;;) {
         cells = 1;
         for (int a = 0; a < 3; a++) {
+            sh->gmin[a] = s->bbox_min[a] - sh->cell;
             float span = s->bbox_max[a] - s->bbox_min[a] + 2.0f * sh->cell;
             sh->gdim[a] = (int)ceilf(span / sh->cell);
+            if (sh->gdim[a] < 1)
+                sh->gdim[a] = 1;
             cells *= (size_t)sh->gdim[a];
         }
+        if (cells <= 4u * 1024u * 1024u)
+            break;
+        sh->cell *= 1.5f;
     }
-    sh->gstart = calloc(cells + 2, sizeof *sh->gstart);
-    sh->gidx = malloc(((size_t)h->num_gpoints + 1) * sizeof *sh->gidx);
-    if (!sh->gstart || !sh->gidx) {
+    /* count entries of the influence grid */
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const gi_gpoint *g = &h->gpoints[i];
+        float r = sh->reach * g->radius;
+        uint64_t c = 1;
+        for (int a = 0; a < 3; a++) {
+            int lo = clampi((int)floorf((g->pos[a] - r - sh->gmin[a]) / sh->cell), 0, sh->gdim[a] - 1);
+            int hi = clampi((int)floorf((g->pos[a] + r - sh->gmin[a]) / sh->cell), 0, sh->gdim[a] - 1);
+            c *= (uint64_t)(hi - lo + 1);
+        }
+        total += c;
+    }
+    if (total > UINT32_MAX / 2) {
+        gi_shade_free(sh);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "gathering-point grid too large (%llu entries)",
+                             (unsigned long long)total);
+    }
+    sh->istart = calloc(cells + 2, sizeof *sh->istart);
+    sh->iidx = malloc((total + 1) * sizeof *sh->iidx);
+    sh->pstart = calloc(cells + 2, sizeof *sh->pstart);
+    sh->pidx = malloc(((size_t)n + 1) * sizeof *sh->pidx);
+    if (!sh->istart || !sh->iidx || !sh->pstart || !sh->pidx) {
         gi_shade_free(sh);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the gathering-point grid");
     }
-    uint32_t *cellof = malloc(((size_t)h->num_gpoints + 1) * sizeof *cellof);
-    if (!cellof) {
-        gi_shade_free(sh);
-        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
-    }
-    for (uint32_t i = 0; i < h->num_gpoints; i++) {
-        int c[3];
-        for (int a = 0; a < 3; a++) {
-            c[a] = (int)floorf((h->gpoints[i].pos[a] - sh->gmin[a]) / sh->cell);
-            c[a] = c[a] < 0 ? 0 : (c[a] >= sh->gdim[a] ? sh->gdim[a] - 1 : c[a]);
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t i = 0; i < n; i++) {
+            const gi_gpoint *g = &h->gpoints[i];
+            float r = sh->reach * g->radius;
+            int lo[3], hi[3], c[3];
+            for (int a = 0; a < 3; a++) {
+                lo[a] = clampi((int)floorf((g->pos[a] - r - sh->gmin[a]) / sh->cell), 0, sh->gdim[a] - 1);
+                hi[a] = clampi((int)floorf((g->pos[a] + r - sh->gmin[a]) / sh->cell), 0, sh->gdim[a] - 1);
+                c[a] = clampi((int)floorf((g->pos[a] - sh->gmin[a]) / sh->cell), 0, sh->gdim[a] - 1);
+            }
+            size_t pc = cell_index(sh, c[0], c[1], c[2]);
+            if (pass == 0)
+                sh->pstart[pc + 1]++;
+            else
+                sh->pidx[sh->pstart[pc]++] = i;
+            for (int z = lo[2]; z <= hi[2]; z++)
+                for (int y = lo[1]; y <= hi[1]; y++)
+                    for (int x = lo[0]; x <= hi[0]; x++) {
+                        size_t ci = cell_index(sh, x, y, z);
+                        if (pass == 0)
+                            sh->istart[ci + 1]++;
+                        else
+                            sh->iidx[sh->istart[ci]++] = i;
+                    }
         }
-        cellof[i] = (uint32_t)(((size_t)c[2] * (size_t)sh->gdim[1] + (size_t)c[1]) * (size_t)sh->gdim[0] + (size_t)c[0]);
-        sh->gstart[cellof[i] + 1]++;
+        if (pass == 0) {
+            for (size_t ci = 0; ci < cells; ci++) {
+                sh->istart[ci + 1] += sh->istart[ci];
+                sh->pstart[ci + 1] += sh->pstart[ci];
+            }
+        } else {
+            /* the fill advanced every start to the next cell's; shift back */
+            for (size_t ci = cells; ci > 0; ci--) {
+                sh->istart[ci] = sh->istart[ci - 1];
+                sh->pstart[ci] = sh->pstart[ci - 1];
+            }
+            sh->istart[0] = 0;
+            sh->pstart[0] = 0;
+        }
     }
-    for (size_t c = 0; c < cells; c++)
-        sh->gstart[c + 1] += sh->gstart[c];
-    uint32_t *fill = malloc((cells + 1) * sizeof *fill);
-    if (!fill) {
-        free(cellof);
-        gi_shade_free(sh);
-        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
-    }
-    memcpy(fill, sh->gstart, cells * sizeof *fill);
-    for (uint32_t i = 0; i < h->num_gpoints; i++)
-        sh->gidx[fill[cellof[i]]++] = i;
-    free(fill);
-    free(cellof);
+    size_t nonempty = 0;
+    for (size_t ci = 0; ci < cells; ci++)
+        nonempty += sh->istart[ci + 1] > sh->istart[ci];
+    gi_verbose("interpolation grid: %d x %d x %d cells of %.3g m, %llu entries, %.1f points per occupied cell",
+               sh->gdim[0], sh->gdim[1], sh->gdim[2], sh->cell, (unsigned long long)total,
+               nonempty ? (double)total / (double)nonempty : 0.0);
     *out = sh;
     return 0;
 }
@@ -117,78 +184,179 @@ void gi_shade_free(gi_shade *sh)
 {
     if (!sh)
         return;
-    free(sh->gstart);
-    free(sh->gidx);
+    free(sh->istart);
+    free(sh->iidx);
+    free(sh->pstart);
+    free(sh->pidx);
     free(sh->px);
+    free(sh->sf);
     free(sh);
 }
 
-/* Irradiance-cache interpolation: w_i = 1 - E_i / reach with the Tabellion
- * error E_i = max(|x - x_i| / R_i, sqrt(1 - n.n_i) / sqrt(1 - cos 10deg));
- * if no point has weight, the nearest point on the same side within 4 cells. */
-void gi_shade_irradiance_at(const gi_shade *sh, const float *gpe, const float p[3], const float n[3], float e[3])
+/* Irradiance-cache weights at (p, n): w_i = 1 - E_i / reach with the
+ * Tabellion error E_i = max(|x - x_i| / R_i, sqrt(1 - n.n_i) / sqrt(1 - cos 10deg)).
+ * Keeps the K largest, normalised. No point with weight: the nearest point on
+ * the same side within 3 cells, weight 1. Returns the number kept. */
+static int interp_weights(const gi_shade *sh, const float p[3], const float n[3], uint32_t *idx, float *wout)
 {
     const gi_hvds *h = sh->h;
     const float inv_na = 1.0f / sqrtf(1.0f - cosf((float)(10.0 * GI_PI / 180.0)));
     int c[3];
     for (int a = 0; a < 3; a++)
         c[a] = (int)floorf((p[a] - sh->gmin[a]) / sh->cell);
-    double acc[3] = {0, 0, 0}, wsum = 0.0;
-    float best = INFINITY;
-    int32_t besti = -1;
-    for (int ring = 1; ring <= 4; ring++) {
-        for (int dz = -ring; dz <= ring; dz++)
-            for (int dy = -ring; dy <= ring; dy++)
-                for (int dx = -ring; dx <= ring; dx++) {
-                    if (ring > 1 && abs(dx) < ring && abs(dy) < ring && abs(dz) < ring)
-                        continue; /* inner shells were done */
+    int k = 0;
+    double wsum = 0.0;
+    if (c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[0] < sh->gdim[0] && c[1] < sh->gdim[1] && c[2] < sh->gdim[2]) {
+        size_t ci = cell_index(sh, c[0], c[1], c[2]);
+        for (uint32_t j = sh->istart[ci]; j < sh->istart[ci + 1]; j++) {
+            uint32_t i = sh->iidx[j];
+            const gi_gpoint *g = &h->gpoints[i];
+            float dn = n[0] * g->nrm[0] + n[1] * g->nrm[1] + n[2] * g->nrm[2];
+            if (dn <= 0.0f)
+                continue;
+            float en = sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na;
+            if (en >= sh->reach)
+                continue;
+            float d[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]};
+            float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            float rr = sh->reach * g->radius;
+            if (d2 >= rr * rr)
+                continue;
+            float err = fmaxf(sqrtf(d2) / g->radius, en);
+            float w = 1.0f - err / sh->reach;
+            if (w <= 0.0f)
+                continue;
+            if (k < GI_SHADE_K) {
+                idx[k] = i;
+                wout[k] = w;
+                k++;
+            } else {
+                int m = 0;
+                for (int q = 1; q < GI_SHADE_K; q++)
+                    if (wout[q] < wout[m])
+                        m = q;
+                if (w > wout[m]) {
+                    idx[m] = i;
+                    wout[m] = w;
+                }
+            }
+        }
+    }
+    if (k == 0) {
+        float best = INFINITY;
+        for (int dz = -3; dz <= 3; dz++)
+            for (int dy = -3; dy <= 3; dy++)
+                for (int dx = -3; dx <= 3; dx++) {
                     int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
                     if (x < 0 || y < 0 || z < 0 || x >= sh->gdim[0] || y >= sh->gdim[1] || z >= sh->gdim[2])
                         continue;
-                    size_t ci = ((size_t)z * (size_t)sh->gdim[1] + (size_t)y) * (size_t)sh->gdim[0] + (size_t)x;
-                    for (uint32_t j = sh->gstart[ci]; j < sh->gstart[ci + 1]; j++) {
-                        uint32_t i = sh->gidx[j];
+                    size_t ci = cell_index(sh, x, y, z);
+                    for (uint32_t j = sh->pstart[ci]; j < sh->pstart[ci + 1]; j++) {
+                        uint32_t i = sh->pidx[j];
                         const gi_gpoint *g = &h->gpoints[i];
                         float dn = n[0] * g->nrm[0] + n[1] * g->nrm[1] + n[2] * g->nrm[2];
                         if (dn <= 0.0f)
                             continue;
                         float d[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]};
-                        float dist = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                        float ep = dist / g->radius;
-                        float en = sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na;
-                        float err = fmaxf(ep, en);
-                        if (ring == 1 && err < sh->reach) {
-                            double w = 1.0 - err / sh->reach;
-                            acc[0] += w * gpe[3 * i];
-                            acc[1] += w * gpe[3 * i + 1];
-                            acc[2] += w * gpe[3 * i + 2];
-                            wsum += w;
-                        }
-                        float score = ep + en;
+                        float score = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / g->radius +
+                                      sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na;
                         if (score < best) {
                             best = score;
-                            besti = (int32_t)i;
+                            idx[0] = i;
                         }
                     }
                 }
-        if (wsum > 0.0 || besti >= 0)
-            break;
+        if (best < INFINITY) {
+            wout[0] = 1.0f;
+            return 1;
+        }
+        return 0;
     }
-    if (wsum > 0.0) {
-        for (int k = 0; k < 3; k++)
-            e[k] = (float)(acc[k] / wsum);
-    } else if (besti >= 0) {
-        for (int k = 0; k < 3; k++)
-            e[k] = gpe[3 * besti + k];
-    } else {
-        e[0] = e[1] = e[2] = 0.0f;
-    }
+    for (int q = 0; q < k; q++)
+        wsum += wout[q];
+    for (int q = 0; q < k; q++)
+        wout[q] = (float)(wout[q] / wsum);
+    return k;
+}
+
+void gi_shade_irradiance_at(const gi_shade *sh, const float *gpe, const float p[3], const float n[3], float e[3])
+{
+    uint32_t idx[GI_SHADE_K];
+    float w[GI_SHADE_K];
+    int k = interp_weights(sh, p, n, idx, w);
+    e[0] = e[1] = e[2] = 0.0f;
+    for (int q = 0; q < k; q++)
+        for (int c = 0; c < 3; c++)
+            e[c] += w[q] * gpe[3 * idx[q] + c];
 }
 
 static int same_camera(const gi_camera *a, const gi_camera *b)
 {
     return !memcmp(a->position, b->position, sizeof a->position) && !memcmp(a->forward, b->forward, sizeof a->forward) &&
            !memcmp(a->up, b->up, sizeof a->up) && a->yfov == b->yfov && a->znear == b->znear && a->zfar == b->zfar;
+}
+
+/* Rasterise and fill the per-sample cache. */
+static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h, int ss, int threads,
+                        gi_status *st)
+{
+    size_t np = (size_t)w * (size_t)h, ns = np * (size_t)(ss * ss);
+    free(sh->px);
+    free(sh->sf);
+    sh->px = malloc(ns * sizeof *sh->px);
+    sh->sf = malloc(ns * sizeof *sh->sf);
+    sh->valid = 0;
+    if (!sh->px || !sh->sf)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for a %dx%d G-buffer with %dx%d samples", w, h, ss, ss);
+    for (int k = 0; k < ss * ss; k++) {
+        float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
+        int rc = gi_gbuffer_render(gb, cam, w, h, jx, jy, sh->px + (size_t)k * np, st);
+        if (rc)
+            return rc;
+    }
+    const gi_scene *s = sh->s;
+    gi_vec3 eye = gi_v3p(cam->position);
+#pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
+    for (size_t i = 0; i < ns; i++) {
+        const gi_gpixel *g = &sh->px[i];
+        ssurf *o = &sh->sf[i];
+        o->valid = 0;
+        o->npairs = 0;
+        o->tsurf = INFINITY;
+        if (!g->tri || g->tri > s->num_triangles)
+            continue;
+        gi_hit hit = {0.0f, g->tri - 1, g->u, g->v};
+        gi_surface sf;
+        gi_rt_surface(sh->rt, &hit, &sf);
+        const gi_material *m = &s->materials[sf.material];
+        o->tsurf = gi_len(gi_sub(sf.p, eye));
+        gi_vec3 wo = gi_norm(gi_sub(eye, sf.p));
+        int front = gi_dot(sf.ng, wo) > 0.0f;
+        o->material = sf.material;
+        /* sidedness is a property of the scene's material; scripts change colours, not sides */
+        if (!front && !m->double_sided)
+            continue;
+        gi_vec3 ng = front ? sf.ng : gi_neg(sf.ng);
+        gi_vec3 nsn = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
+        if (gi_dot(nsn, wo) <= 0.0f)
+            nsn = ng;
+        gi_v3store(o->p, sf.p);
+        gi_v3store(o->ng, ng);
+        gi_v3store(o->ns, nsn);
+        gi_v3store(o->wo, wo);
+        /* texel = base colour with a unit factor */
+        gi_material unit = *m;
+        unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+        gi_scene_base_color(s, &unit, sf.uv0, sf.uv1, o->texel);
+        o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
+        o->valid = 1;
+    }
+    sh->pw = w;
+    sh->ph = h;
+    sh->pss = ss;
+    sh->pcam = *cam;
+    sh->valid = 1;
+    return 0;
 }
 
 int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
@@ -198,55 +366,29 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
 {
     int ss = o->ss < 1 ? 1 : o->ss;
     size_t np = (size_t)w * (size_t)h;
+    int threads = o->threads > 0 ? o->threads : omp_get_num_procs();
     double t0 = gi_now();
     if (!sh->valid || sh->pw != w || sh->ph != h || sh->pss != ss || !same_camera(&sh->pcam, cam)) {
-        free(sh->px);
-        sh->px = malloc(np * (size_t)(ss * ss) * sizeof *sh->px);
-        if (!sh->px) {
-            sh->valid = 0;
-            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for a %dx%d G-buffer", w, h);
-        }
-        for (int k = 0; k < ss * ss; k++) {
-            float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
-            int rc = gi_gbuffer_render(gb, cam, w, h, jx, jy, sh->px + (size_t)k * np, st);
-            if (rc) {
-                sh->valid = 0;
-                return rc;
-            }
-        }
-        sh->pw = w;
-        sh->ph = h;
-        sh->pss = ss;
-        sh->pcam = *cam;
-        sh->valid = 1;
+        int rc = prepare_view(sh, gb, cam, w, h, ss, threads, st);
+        if (rc)
+            return rc;
     }
     double t1 = gi_now();
-    int threads = o->threads > 0 ? o->threads : omp_get_num_procs();
     int ka = (int)ceilf(sqrtf((float)(o->area_samples > 0 ? o->area_samples : 1)));
-    gi_vec3 eye = gi_v3p(cam->position);
-    const gi_scene *s = sh->s;
-    double tdirect = 0.0;
     int has_area = 0;
     for (size_t l = 0; l < num_lights; l++)
         has_area |= lights[l].enabled && lights[l].type == GI_LIGHT_AREA;
-#pragma omp parallel for schedule(dynamic, 4) num_threads(threads) reduction(+ : tdirect)
+    const int S = ss * ss;
+    /* pass 1: emission, visible area lights and direct light */
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
     for (int y = 0; y < h; y++) {
         gi_rt_thread_init();
         for (int x = 0; x < w; x++) {
             size_t pix = (size_t)y * (size_t)w + (size_t)x;
             gi_vec3 sum = gi_v3(0, 0, 0);
-            for (int k = 0; k < ss * ss; k++) {
-                const gi_gpixel *g = &sh->px[(size_t)k * np + pix];
-                int has_surface = g->tri && g->tri <= s->num_triangles;
-                gi_surface sf;
-                float tsurf = INFINITY;
-                if (has_surface) {
-                    gi_hit hit = {0.0f, g->tri - 1, g->u, g->v};
-                    gi_rt_surface(sh->rt, &hit, &sf);
-                    tsurf = gi_len(gi_sub(sf.p, eye));
-                }
+            for (int k = 0; k < S; k++) {
+                const ssurf *sf = &sh->sf[(size_t)k * np + pix];
                 if (has_area) {
-                    /* area lights the camera sees directly (they do not hide what is behind) */
                     float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
                     gi_vec3 ro, rd;
                     gi_camera_ray(cam, w, h, (float)x + jx, (float)y + jy, &ro, &rd);
@@ -255,81 +397,88 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                         int lf;
                         if (!lt->enabled || lt->type != GI_LIGHT_AREA)
                             continue;
-                        float tl = gi_area_light_intersect(lt, ro, rd, 0.0f, tsurf * 0.9999f, &lf);
+                        float tl = gi_area_light_intersect(lt, ro, rd, 0.0f, sf->tsurf * 0.9999f, &lf);
                         if (tl > 0.0f && lf)
                             sum = gi_add(sum, gi_scale(gi_v3p(lt->color), lt->intensity));
                     }
                 }
-                if (!has_surface)
+                if (!sf->valid)
                     continue;
-                const gi_material *m = &mats[sf.material];
-                gi_vec3 wo = gi_norm(gi_sub(eye, sf.p));
-                int front = gi_dot(sf.ng, wo) > 0.0f;
-                if (!front && !m->double_sided)
-                    continue; /* back of a single-sided surface: black, as in the reference */
-                gi_vec3 ng = front ? sf.ng : gi_neg(sf.ng);
-                gi_vec3 ns = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
-                if (gi_dot(ns, wo) <= 0.0f)
-                    ns = ng;
+                const gi_material *m = &mats[sf->material];
+                gi_vec3 p = gi_v3p(sf->p), ng = gi_v3p(sf->ng), nsn = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
                 gi_vec3 L = gi_v3p(m->emission);
-                float base[3];
-                gi_scene_base_color(s, m, sf.uv0, sf.uv1, base);
-                gi_bsdf b;
-                gi_bsdf_init(&b, m, gi_v3p(base));
-                double td0 = gi_now();
                 if (o->direct) {
+                    gi_bsdf b;
+                    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
                     for (size_t l = 0; l < num_lights; l++) {
                         const gi_light *lt = &lights[l];
                         if (!lt->enabled)
                             continue;
-                        int ns_ = lt->type == GI_LIGHT_AREA ? ka * ka : 1;
+                        int nsmp = lt->type == GI_LIGHT_AREA ? ka * ka : 1;
                         gi_rng rng;
                         gi_rng_seed(&rng, o->seed, pix * 64u + (uint64_t)k, l);
                         gi_vec3 acc = gi_v3(0, 0, 0);
-                        for (int j = 0; j < ns_; j++) {
+                        for (int j = 0; j < nsmp; j++) {
                             float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
                             float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
                             gi_light_sample ls;
-                            if (!gi_light_sample_at(lt, sf.p, u1, u2, &ls))
+                            if (!gi_light_sample_at(lt, p, u1, u2, &ls))
                                 continue;
-                            float cosi = gi_dot(ns, ls.wi);
+                            float cosi = gi_dot(nsn, ls.wi);
                             if (cosi <= 0.0f || gi_dot(ng, ls.wi) <= 0.0f)
                                 continue;
-                            gi_vec3 org = gi_rt_offset(sf.p, ng, ls.wi);
+                            gi_vec3 f = gi_bsdf_eval(&b, nsn, wo, ls.wi);
+                            if (gi_maxc(f) <= 0.0f)
+                                continue;
+                            gi_vec3 org = gi_rt_offset(p, ng, ls.wi);
                             float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
                             if (gi_rt_occluded(sh->rt, org, ls.wi, 0.0f, tmax))
                                 continue;
-                            gi_vec3 f = gi_bsdf_eval(&b, ns, wo, ls.wi);
                             acc = gi_add(acc, gi_scale(gi_mul(f, ls.value), cosi));
                         }
-                        L = gi_add(L, gi_scale(acc, 1.0f / (float)ns_));
+                        L = gi_add(L, gi_scale(acc, 1.0f / (float)nsmp));
                     }
-                }
-                double td1 = gi_now();
-                tdirect += td1 - td0;
-                if (o->indirect && gpe) {
-                    float e[3], pp[3], nn[3];
-                    gi_v3store(pp, sf.p);
-                    gi_v3store(nn, ng);
-                    gi_shade_irradiance_at(sh, gpe, pp, nn, e);
-                    /* low-frequency approximation: the whole BRDF sees the indirect light as diffuse */
-                    gi_vec3 alb = gi_bsdf_max_albedo(&b);
-                    L = gi_add(L, gi_scale(gi_mul(alb, gi_v3p(e)), GI_INV_PIf));
                 }
                 sum = gi_add(sum, L);
             }
-            gi_v3store(rgb + 3 * pix, gi_scale(sum, 1.0f / (float)(ss * ss)));
+            gi_v3store(rgb + 3 * pix, gi_scale(sum, 1.0f / (float)S));
         }
     }
     double t2 = gi_now();
+    /* pass 2: indirect light from the cached interpolation weights */
+    if (o->indirect && gpe) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+        for (size_t pix = 0; pix < np; pix++) {
+            gi_vec3 sum = gi_v3(0, 0, 0);
+            for (int k = 0; k < S; k++) {
+                const ssurf *sf = &sh->sf[(size_t)k * np + pix];
+                if (!sf->valid)
+                    continue;
+                const gi_material *m = &mats[sf->material];
+                float e[3] = {0, 0, 0};
+                for (int q = 0; q < sf->npairs; q++) {
+                    const float *g = gpe + 3 * (size_t)sf->gp[q];
+                    e[0] += sf->w[q] * g[0];
+                    e[1] += sf->w[q] * g[1];
+                    e[2] += sf->w[q] * g[2];
+                }
+                /* low-frequency approximation: the whole BRDF sees the indirect light as diffuse */
+                gi_bsdf b;
+                gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+                sum = gi_add(sum, gi_mul(gi_bsdf_max_albedo(&b), gi_v3p(e)));
+            }
+            float *out = rgb + 3 * pix;
+            float sc = GI_INV_PIf / (float)S;
+            out[0] += sum.x * sc;
+            out[1] += sum.y * sc;
+            out[2] += sum.z * sc;
+        }
+    }
+    double t3 = gi_now();
     if (times) {
         times->gbuffer = t1 - t0;
-        double wall = t2 - t1;
-        double dshare = tdirect / (double)threads;
-        if (dshare > wall)
-            dshare = wall;
-        times->direct = dshare;
-        times->splat = wall - dshare;
+        times->direct = t2 - t1;
+        times->splat = t3 - t2;
     }
     return 0;
 }

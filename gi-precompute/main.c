@@ -266,17 +266,18 @@ int main(int argc, char **argv)
     struct stat sb;
     double mb = stat(o.output, &sb) == 0 ? (double)sb.st_size / 1e6 : 0.0;
     double P = (double)g->num_photons, N = (double)g->num_entries;
-    gi_info("%s: %" PRIu32 " entry points (%" PRIu32 " uniform, %" PRIu32
-            " from %" PRIu32 " region batches), %" PRIu64
-            " photons, mean path length %.3f, %.1f%% of paths escaped, %" PRIu64
-            " triangles skipped",
+    double tp = t2 - t1 > 0.0 ? t2 - t1 : 1e-9;
+    gi_info("%s: %" PRIu32 " entry points (%" PRIu32 " uniform, %" PRIu32 " from %" PRIu32
+            " region batches), %" PRIu64 " photons, mean path length %.3f, %.1f%% of paths "
+            "escaped, %" PRIu64 " triangles skipped; precompute %.2f s (%.0f photons/s), "
+            "total %.2f s; %.1f MB: compact %.2f B/photon, detail %.2f B/photon",
             o.output, g->num_entries, g->num_uniform, g->num_entries - g->num_uniform,
             g->region_batches, g->num_photons, P / N, 100.0 * (double)g->escaped / N,
-            g->skipped_degenerate);
-    gi_info("%s: precompute %.2f s (%.0f photons/s), write %.2f s, total %.2f s; %.1f MB: compact "
-            "%.2f B/photon, detail %.2f B/photon",
-            o.output, t2 - t1, P / (t2 - t1 > 0.0 ? t2 - t1 : 1e-9), t3 - t2, t3 - t0, mb,
+            g->skipped_degenerate, t2 - t1, P / tp, t3 - t0, mb,
             (double)gi_gip_compact_bytes(g) / P, (double)gi_gip_detail_bytes(g) / P);
+    gi_verbose("%s: written in %.2f s; paths: %" PRIu64 " escaped, %" PRIu64 " absorbed, %" PRIu64
+               " ended by roulette, %" PRIu64 " capped",
+               o.output, t3 - t2, g->escaped, g->absorbed, g->roulette, g->capped);
     gi_gip_free(g);
     gi_rt_free(rt);
     gi_scene_free(s);

@@ -26,7 +26,7 @@ if [ "${GI_ONLY:-}" != cli ]; then
     f=$(grep -Eo '^\[  FAILED  \] [0-9]+' "$tmp/out" | awk '{s+=$4} END {print s+0}')
     if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi  # crash or sanitizer report
     passed=$((passed + p)); failed=$((failed + f))
-    printf '%-34s %3d passed %3d failed  %6.2fs\n' "$name" "$p" "$f" "$(echo "$t1 - $t0" | bc)"
+    printf '%-34s %3d passed %3d failed  %6.2fs\n' "$name" "$p" "$f" "$(awk -v a="$t0" -v b="$t1" "BEGIN { print b - a }")"
     if [ "$f" -ne 0 ]; then failures+=("$name"); sed 's/^/    /' "$tmp/out" | grep -v '^    \[ \(RUN\|       OK\) ' | tail -40; fi
   done
 fi
@@ -42,7 +42,7 @@ if [ "${GI_ONLY:-}" != unit ]; then
     p=$(grep -c '^ok ' "$tmp/out"); f=$(grep -c '^not ok ' "$tmp/out")
     if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then f=1; fi
     passed=$((passed + p)); failed=$((failed + f))
-    printf '%-34s %3d passed %3d failed  %6.2fs\n' "$name" "$p" "$f" "$(echo "$t1 - $t0" | bc)"
+    printf '%-34s %3d passed %3d failed  %6.2fs\n' "$name" "$p" "$f" "$(awk -v a="$t0" -v b="$t1" "BEGIN { print b - a }")"
     if [ "$f" -ne 0 ]; then failures+=("$name"); sed 's/^/    /' "$tmp/out" | tail -40; fi
   done
 fi

@@ -13,10 +13,10 @@ fi
 "$MC" -q "$TMP/cornell.gltf" || { not_ok "mkcornell makes the scene"; finish; }
 SC=$TMP/cornell.gltf
 
-# The Cornell light "ceiling" is a 2 cd white point light at (0.278, 0.54, 0.2795).
+# The Cornell light "ceiling" is a 2 cd white point light at (0.278, 0.45, 0.2795).
 # Comments, blank lines, CRLF and tabs are allowed in a points file.
 printf '%s\n' '# x y z nx ny nz (metres)' \
-  '0.278 0.001 0.2795   0 1 0     # floor, 0.539 m straight below the light' \
+  '0.278 0.001 0.2795   0 1 0     # floor, 0.449 m straight below the light' \
   '' '   ' \
   '	0.278 0.27 1.0	0 0 -2      # outside, behind the back wall, facing it (normal not unit)' >"$TMP/pts.txt"
 printf '0.1 0.3 0.3 1 0 0\r\n# last line without a newline' >>"$TMP/pts.txt"
@@ -31,8 +31,8 @@ expect_success "sensors, direct light only (--max-bounces 0)" \
 check "one line per point (3)" [ "$(wc -l <"$TMP/stdout")" -eq 3 ]
 check "every line is two numbers" awk 'NF != 2 || $1 + 0 != $1 || $2 + 0 != $2 { bad = 1 } END { exit bad }' "$TMP/stdout"
 e=$(line 1 1) s=$(line 1 2)
-check "floor under the light: E = I/d^2 = 2/0.539^2 lx within 3 stderr (E=$e +- $s)" \
-  awk -v e="$e" -v s="$s" 'BEGIN { x = 2 / (0.539 * 0.539); d = e - x; if (d < 0) d = -d;
+check "floor under the light: E = I/d^2 = 2/0.449^2 lx within 3 stderr (E=$e +- $s)" \
+  awk -v e="$e" -v s="$s" 'BEGIN { x = 2 / (0.449 * 0.449); d = e - x; if (d < 0) d = -d;
     exit !(e != "" && d <= 3 * s + 1e-5 * x) }'
 check "behind the back wall: no direct light ($(line 2 1))" [ "$(line 2 1)" = 0 ]
 edirect=$e
