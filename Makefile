@@ -110,7 +110,7 @@ $(BUILD)/tools/mkcornell: $(BUILD)/examples/cornell-box/mkcornell.o $(LIBGI)
 # Unit tests (cmocka) then CLI tests (tests/cli/t*.sh); one summary line at the end.
 test: deps
 	@$(MAKE) --no-print-directory all $(UNIT_BINS)
-	@BUILD=$(BUILD) BIN=$(BIN) tests/run.sh $(UNIT_BINS)
+	@GI_SANITIZE=$(if $(filter 1,$(SANITIZE)),1,0) BUILD=$(BUILD) BIN=$(BIN) tests/run.sh $(UNIT_BINS)
 
 unit: all $(UNIT_BINS)
 	@BUILD=$(BUILD) BIN=$(BIN) GI_ONLY=unit tests/run.sh $(UNIT_BINS)

@@ -725,6 +725,8 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     int k = (int)lrintf(sqrtf((float)(o.gather_rays > 0 ? o.gather_rays : 256)));
     if (k < 1)
         k = 1;
+    if (k > 255)
+        k = 255; /* (key, count) pairs count in 16 bits */
     o.gather_rays = k * k;
     const int N = o.gather_rays;
     double t0 = gi_now();
@@ -842,6 +844,12 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (uint64_t p = 0; p < P; p++) {
         gi_gip_vertex(gip, s, p, ppos + 3 * p, pnrm + 3 * p);
+        /* bin by the geometric normal on the photon's side, as key areas and
+         * gathering-ray hits are: shading normals would strand flux in keys
+         * whose clipped area is zero */
+        gi_vec3 gp, gn;
+        surf_point(s, gip->tri[p], 0.3f, 0.3f, gip->side[p], &gp, &gn);
+        gi_v3store(pnrm + 3 * p, gn);
         pbin[p] = (int8_t)gi_hvds_normal_bin(pnrm + 3 * p);
     }
 

@@ -203,18 +203,19 @@ typedef struct vertex {
 
 /* Direct light at vertex v by next-event estimation; beta is the path
  * throughput. Adds MIS-weighted contributions. */
-static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_rng *rng)
+static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_sampler *rng)
 {
     gi_vec3 L = gi_v3(0.0f, 0.0f, 0.0f);
     size_t first = 0, last = pt->nl;
     if (pt->nl && !pt->sample_all) {
-        first = upper_bound(pt->light_cdf, pt->nl, gi_rng_float(rng));
+        first = upper_bound(pt->light_cdf, pt->nl, gi_sampler_1d(rng));
         last = first + 1;
     }
     for (size_t i = first; i < last; i++) {
         const gi_light *l = &pt->lights[i];
         gi_light_sample ls;
-        float u1 = gi_rng_float(rng), u2 = gi_rng_float(rng);
+        float u1, u2;
+        gi_sampler_2d(rng, &u1, &u2);
         if (!gi_light_sample_at(l, v->p, u1, u2, &ls))
             continue;
         float cosn = gi_dot(v->ns, ls.wi);
@@ -234,7 +235,7 @@ static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_rng *rng)
         L = gi_add(L, gi_scale(gi_mul(f, ls.value), cosn * w / psel));
     }
     if (pt->ne) {
-        float u = gi_rng_float(rng);
+        float u = gi_sampler_1d(rng);
         size_t k = upper_bound(pt->emit_cdf, pt->ne, u);
         uint32_t t = pt->emit_tri[k];
         const gi_scene *s = pt->s;
@@ -242,7 +243,8 @@ static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_rng *rng)
         gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
         gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
         gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
-        float r1 = gi_rng_float(rng), r2 = gi_rng_float(rng);
+        float r1, r2;
+        gi_sampler_2d(rng, &r1, &r2);
         float sq = sqrtf(r1);
         float b0 = 1.0f - sq, b1 = r2 * sq;
         gi_vec3 q = gi_add(gi_scale(p0, b0), gi_add(gi_scale(p1, b1), gi_scale(p2, 1.0f - b0 - b1)));
@@ -275,7 +277,7 @@ static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_rng *rng)
 
 /* Continue a path from vertex v (already shaded for direct light) and return
  * the radiance it gathers by indirect transport, times beta0. */
-static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi_rng *rng)
+static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi_sampler *rng)
 {
     gi_vec3 L = gi_v3(0.0f, 0.0f, 0.0f);
     const gi_scene *s = pt->s;
@@ -285,8 +287,9 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
     for (;;) {
         gi_vec3 wi, w;
         float pdf;
-        if (!gi_bsdf_sample(&v.bsdf, v.ns, v.wo, gi_rng_float(rng), gi_rng_float(rng),
-                            gi_rng_float(rng), &wi, &w, &pdf))
+        float b1, b2;
+        gi_sampler_2d(rng, &b1, &b2);
+        if (!gi_bsdf_sample(&v.bsdf, v.ns, v.wo, b1, b2, gi_sampler_1d(rng), &wi, &w, &pdf))
             break;
         if (gi_dot(wi, v.ng) <= 0.0f)
             break;
@@ -295,7 +298,7 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
         /* Russian roulette after a few bounces, no hard cap */
         if (depth >= 3) {
             float q = fminf(0.95f, gi_maxc(beta));
-            if (!(q > 0.0f) || gi_rng_float(rng) >= q)
+            if (!(q > 0.0f) || gi_sampler_1d(rng) >= q)
                 break;
             beta = gi_scale(beta, 1.0f / q);
         }
@@ -350,7 +353,7 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
     return L;
 }
 
-gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_rng *rng)
+gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_sampler *rng)
 {
     gi_hit h;
     int hit = gi_rt_intersect(pt->rt, o, d, 0.0f, INFINITY, &h);
@@ -392,7 +395,7 @@ gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_rng *rng)
     return L;
 }
 
-gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_rng *rng)
+gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_sampler *rng)
 {
     /* E = pi * L_o of a white Lambertian sensor: L_o = integral (1/pi) L_i cos dw */
     vertex v;
@@ -446,11 +449,12 @@ int gi_pt_render(const gi_pt *pt, const gi_camera *cam, int w, int h, int spp,
             for (int x = 0; x < w; x++) {
                 size_t pix = (size_t)y * (size_t)w + (size_t)x;
                 for (int k = s0; k < s0 + n; k++) {
-                    gi_rng rng;
-                    gi_rng_seed(&rng, pt->opts.seed, pix, (uint64_t)k);
+                    gi_sampler rng;
+                    gi_sampler_init(&rng, pt->opts.seed, pix, (uint32_t)k);
                     gi_vec3 o, d;
-                    gi_camera_ray(cam, w, h, (float)x + gi_rng_float(&rng),
-                                  (float)y + gi_rng_float(&rng), &o, &d);
+                    float jx, jy;
+                    gi_sampler_2d(&rng, &jx, &jy);
+                    gi_camera_ray(cam, w, h, (float)x + jx, (float)y + jy, &o, &d);
                     gi_vec3 L = gi_pt_radiance(pt, o, d, &rng);
                     if (!finite3(L)) {
                         dropped++;
@@ -499,8 +503,8 @@ int gi_pt_sensors(const gi_pt *pt, const float *points, size_t n, int spp, doubl
         double sum = 0.0, sum2 = 0.0;
         int taken = 0;
         for (int k = 0; k < spp; k++) {
-            gi_rng rng;
-            gi_rng_seed(&rng, pt->opts.seed ^ 0x5e45025ULL, i, (uint64_t)k);
+            gi_sampler rng;
+            gi_sampler_init(&rng, pt->opts.seed ^ 0x5e45025ULL, i, (uint32_t)k);
             gi_vec3 e = gi_pt_irradiance(pt, x, nn, &rng);
             if (!finite3(e))
                 continue;

@@ -44,10 +44,10 @@ int gi_pt_new(const gi_rt *rt, const gi_light *lights, size_t num_lights,
 void gi_pt_free(gi_pt *pt);
 
 /* Radiance (cd/m^2, RGB) arriving at o from direction -d, one sample. */
-gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_rng *rng);
+gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_sampler *rng);
 /* One-sample estimate of the illuminance (lux, RGB) on a small sensor at x
  * facing n (hemisphere above n, direct and indirect). */
-gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_rng *rng);
+gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_sampler *rng);
 
 typedef struct gi_pt_render_result {
     int spp;             /* samples per pixel actually taken */

@@ -40,6 +40,7 @@ struct gi_relight {
     float *refl;          /* 3 per photon vertex: R_k (vertex 0: unused) */
     float *entry_pos;     /* 3 per entry */
     float *entry_nrm;     /* 3 per entry */
+    float *entry_texel;   /* 3 per entry: base-colour texture value (1 if untextured); base = factor * texel */
     float *flux;          /* 3 per photon vertex: outgoing flux */
     float *key_flux;      /* 3 per key */
     uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
@@ -55,15 +56,18 @@ static int alloc_all(gi_relight *r)
     r->flux = calloc(3 * P + 3, sizeof *r->flux);
     r->entry_pos = malloc((3 * E + 3) * sizeof *r->entry_pos);
     r->entry_nrm = malloc((3 * E + 3) * sizeof *r->entry_nrm);
+    r->entry_texel = malloc((3 * E + 3) * sizeof *r->entry_texel);
     r->key_flux = calloc(3 * K + 3, sizeof *r->key_flux);
     r->key_start = calloc(K + 2, sizeof *r->key_start);
     r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
     r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
-    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->key_flux && r->key_start &&
+    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->key_flux && r->key_start &&
                    r->key_photon && r->gp_e
                ? 0
                : -1;
 }
+
+static gi_vec3 vertex_base(const gi_relight *r, const gi_material *m, uint64_t i);
 
 int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const gi_hvds *h, int threads,
                    uint64_t seed, gi_relight **out, gi_status *st)
@@ -86,8 +90,14 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %llu photons",
                              (unsigned long long)gip->num_photons);
     }
-    for (uint32_t e = 0; e < gip->num_entries; e++)
-        gi_gip_vertex(gip, s, gip->path_start[e], r->entry_pos + 3 * (size_t)e, r->entry_nrm + 3 * (size_t)e);
+    for (uint32_t e = 0; e < gip->num_entries; e++) {
+        uint64_t v0 = gip->path_start[e];
+        gi_gip_vertex(gip, s, v0, r->entry_pos + 3 * (size_t)e, r->entry_nrm + 3 * (size_t)e);
+        /* the texture alone, so a script's new base-colour factor applies at entry points too */
+        gi_material unit = s->materials[s->tri_material[gip->tri[v0]]];
+        unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+        gi_v3store(r->entry_texel + 3 * (size_t)e, vertex_base(r, &unit, v0));
+    }
     /* CSR of photons by key, in photon order (deterministic sums) */
     uint64_t P = gip->num_photons;
     uint32_t K = h->num_keys;
@@ -122,6 +132,7 @@ void gi_relight_free(gi_relight *r)
     free(r->flux);
     free(r->entry_pos);
     free(r->entry_nrm);
+    free(r->entry_texel);
     free(r->key_flux);
     free(r->key_start);
     free(r->key_photon);
@@ -291,7 +302,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         gi_vec3 nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
         const gi_material *m = &r->mats[s->tri_material[g->tri[v0]]];
         gi_bsdf b;
-        gi_bsdf_init(&b, m, gi_v3p(g->entry_base + 3 * (size_t)e));
+        gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(r->entry_texel + 3 * (size_t)e)));
         gi_vec3 wo = gi_v3p(g->w_out + 3 * v0);
         float coso = fmaxf(gi_dot(nn, wo), 0.0f);
         float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);

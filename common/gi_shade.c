@@ -50,6 +50,7 @@ struct gi_shade {
     int pw, ph, pss;
     gi_camera pcam;
     int valid;
+    float jit[2 * 64];  /* sub-pixel position of each sample pass (ss <= 8) */
 };
 
 void gi_shade_opts_default(gi_shade_opts *o)
@@ -308,8 +309,15 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     sh->valid = 0;
     if (!sh->px || !sh->sf)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for a %dx%d G-buffer with %dx%d samples", w, h, ss, ss);
+    /* one jittered position per stratum (the same for every pixel of a pass):
+     * with ss > 1 the pixel average is an unbiased box filter like the reference's */
+    gi_rng rng;
+    gi_rng_seed(&rng, 0x5eed, (uint64_t)ss, 0);
     for (int k = 0; k < ss * ss; k++) {
-        float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
+        float r1 = ss > 1 ? gi_rng_float(&rng) : 0.5f, r2 = ss > 1 ? gi_rng_float(&rng) : 0.5f;
+        float jx = ((float)(k % ss) + r1) / (float)ss, jy = ((float)(k / ss) + r2) / (float)ss;
+        sh->jit[2 * k] = jx;
+        sh->jit[2 * k + 1] = jy;
         int rc = gi_gbuffer_render(gb, cam, w, h, jx, jy, sh->px + (size_t)k * np, st);
         if (rc)
             return rc;
@@ -359,6 +367,130 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     return 0;
 }
 
+/* Area lights seen directly by the camera, antialiased like the reference:
+ * the exact share of each pixel covered by the projected rectangle, times the
+ * share of 4 x 4 camera rays through the light that no geometry blocks
+ * (Embree). Only pixels in the light's projected bounding box. Adds into rgb. */
+static void visible_area_lights(const gi_shade *sh, const gi_camera *cam, int w, int h, const gi_light *lights,
+                                size_t num_lights, float *rgb, int threads)
+{
+    gi_vec3 f = gi_norm(gi_v3p(cam->forward)), up = gi_norm(gi_v3p(cam->up));
+    gi_vec3 r = gi_norm(gi_cross(f, up));
+    up = gi_cross(r, f);
+    float th = tanf(0.5f * cam->yfov), aspect = (float)w / (float)h;
+    gi_vec3 eye = gi_v3p(cam->position);
+    for (size_t l = 0; l < num_lights; l++) {
+        const gi_light *lt = &lights[l];
+        if (!lt->enabled || lt->type != GI_LIGHT_AREA)
+            continue;
+        gi_vec3 c = gi_v3p(lt->position), u = gi_v3p(lt->u), v = gi_v3p(lt->v);
+        int x0 = 0, y0 = 0, x1 = w - 1, y1 = h - 1, all_front = 1;
+        float bx0 = INFINITY, by0 = INFINITY, bx1 = -INFINITY, by1 = -INFINITY;
+        for (int k = 0; k < 4; k++) {
+            gi_vec3 q = gi_add(c, gi_add(gi_scale(u, (k & 1) ? 1.0f : -1.0f), gi_scale(v, (k & 2) ? 1.0f : -1.0f)));
+            gi_vec3 d = gi_sub(q, eye);
+            float z = gi_dot(d, f);
+            if (z <= 1e-6f) {
+                all_front = 0;
+                break;
+            }
+            float px = (gi_dot(d, r) / (z * th * aspect) + 1.0f) * 0.5f * (float)w;
+            float py = (1.0f - gi_dot(d, up) / (z * th)) * 0.5f * (float)h;
+            bx0 = fminf(bx0, px);
+            bx1 = fmaxf(bx1, px);
+            by0 = fminf(by0, py);
+            by1 = fmaxf(by1, py);
+        }
+        if (all_front) {
+            if (bx1 < 0.0f || by1 < 0.0f || bx0 >= (float)w || by0 >= (float)h)
+                continue;
+            x0 = clampi((int)floorf(bx0) - 1, 0, w - 1);
+            x1 = clampi((int)floorf(bx1) + 1, 0, w - 1);
+            y0 = clampi((int)floorf(by0) - 1, 0, h - 1);
+            y1 = clampi((int)floorf(by1) + 1, 0, h - 1);
+        }
+        gi_vec3 le = gi_scale(gi_v3p(lt->color), lt->intensity);
+        /* projected corners, in pixel units, in order around the rectangle */
+        float poly[4][2];
+        if (all_front) {
+            static const int ord[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+            for (int k = 0; k < 4; k++) {
+                gi_vec3 q = gi_add(c, gi_add(gi_scale(u, (float)ord[k][0]), gi_scale(v, (float)ord[k][1])));
+                gi_vec3 d = gi_sub(q, eye);
+                float z = gi_dot(d, f);
+                poly[k][0] = (gi_dot(d, r) / (z * th * aspect) + 1.0f) * 0.5f * (float)w;
+                poly[k][1] = (1.0f - gi_dot(d, up) / (z * th)) * 0.5f * (float)h;
+            }
+        }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+        for (int y = y0; y <= y1; y++) {
+            gi_rt_thread_init();
+            for (int x = x0; x <= x1; x++) {
+                int hits = 0, seen = 0;
+                for (int k = 0; k < 16; k++) {
+                    gi_vec3 ro, rd;
+                    gi_camera_ray(cam, w, h, (float)x + ((float)(k & 3) + 0.5f) / 4.0f,
+                                  (float)y + ((float)(k >> 2) + 0.5f) / 4.0f, &ro, &rd);
+                    int front;
+                    float t = gi_area_light_intersect(lt, ro, rd, 0.0f, INFINITY, &front);
+                    if (t > 0.0f && front) {
+                        seen++;
+                        hits += !gi_rt_occluded(sh->rt, ro, rd, 0.0f, t * (1.0f - 1e-5f));
+                    }
+                }
+                float cover;
+                if (all_front) {
+                    /* exact share of the pixel square inside the projected rectangle */
+                    float a[12][2], b[12][2];
+                    int na = 4;
+                    memcpy(a, poly, sizeof poly);
+                    const float lim[4] = {(float)x, (float)(x + 1), (float)y, (float)(y + 1)};
+                    for (int e = 0; e < 4; e++) {
+                        int ax = e / 2, keep_ge = !(e & 1), nb = 0;
+                        for (int i = 0; i < na; i++) {
+                            const float *p0 = a[i], *p1 = a[(i + 1) % na];
+                            float d0 = keep_ge ? p0[ax] - lim[e] : lim[e] - p0[ax];
+                            float d1 = keep_ge ? p1[ax] - lim[e] : lim[e] - p1[ax];
+                            if (d0 >= 0.0f && nb < 12) {
+                                b[nb][0] = p0[0];
+                                b[nb][1] = p0[1];
+                                nb++;
+                            }
+                            if ((d0 >= 0.0f) != (d1 >= 0.0f) && nb < 12) {
+                                float t = d0 / (d0 - d1);
+                                b[nb][0] = p0[0] + t * (p1[0] - p0[0]);
+                                b[nb][1] = p0[1] + t * (p1[1] - p0[1]);
+                                nb++;
+                            }
+                        }
+                        memcpy(a, b, sizeof b);
+                        na = nb;
+                    }
+                    float area2 = 0.0f;
+                    for (int i = 0; i < na; i++)
+                        area2 += a[i][0] * a[(i + 1) % na][1] - a[(i + 1) % na][0] * a[i][1];
+                    cover = 0.5f * fabsf(area2);
+                    if (cover > 0.0f) {
+                        /* facing: the emitting side towards the eye */
+                        if (gi_dot(gi_sub(eye, c), gi_cross(u, v)) <= 0.0f)
+                            cover = 0.0f;
+                        else if (seen)
+                            cover *= (float)hits / (float)seen;
+                    }
+                } else {
+                    cover = (float)hits / 16.0f;
+                }
+                if (cover > 0.0f) {
+                    float *o = rgb + 3 * ((size_t)y * (size_t)w + (size_t)x);
+                    o[0] += le.x * cover;
+                    o[1] += le.y * cover;
+                    o[2] += le.z * cover;
+                }
+            }
+        }
+    }
+}
+
 int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
                    const gi_light *lights, size_t num_lights, const gi_material *mats,
                    const float *gpe, const gi_shade_opts *o, float *rgb, gi_shade_times *times,
@@ -388,20 +520,6 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             gi_vec3 sum = gi_v3(0, 0, 0);
             for (int k = 0; k < S; k++) {
                 const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-                if (has_area) {
-                    float jx = ((float)(k % ss) + 0.5f) / (float)ss, jy = ((float)(k / ss) + 0.5f) / (float)ss;
-                    gi_vec3 ro, rd;
-                    gi_camera_ray(cam, w, h, (float)x + jx, (float)y + jy, &ro, &rd);
-                    for (size_t l = 0; l < num_lights; l++) {
-                        const gi_light *lt = &lights[l];
-                        int lf;
-                        if (!lt->enabled || lt->type != GI_LIGHT_AREA)
-                            continue;
-                        float tl = gi_area_light_intersect(lt, ro, rd, 0.0f, sf->tsurf * 0.9999f, &lf);
-                        if (tl > 0.0f && lf)
-                            sum = gi_add(sum, gi_scale(gi_v3p(lt->color), lt->intensity));
-                    }
-                }
                 if (!sf->valid)
                     continue;
                 const gi_material *m = &mats[sf->material];
@@ -444,6 +562,8 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             gi_v3store(rgb + 3 * pix, gi_scale(sum, 1.0f / (float)S));
         }
     }
+    if (has_area)
+        visible_area_lights(sh, cam, w, h, lights, num_lights, rgb, threads);
     double t2 = gi_now();
     /* pass 2: indirect light from the cached interpolation weights */
     if (o->indirect && gpe) {

@@ -102,14 +102,10 @@ int main(int argc, char **argv)
     gi_rt *rt = NULL;
     gi_gip *gip = NULL;
     gi_hvds *h = NULL;
-    gi_reader *rd = NULL;
     int rc = gi_scene_load(scene_path, &s, &st);
     if (!rc)
         rc = gi_gip_read(gip_path, s, &gip, &st);
-    if (!rc)
-        rc = gi_reader_open(gip_path, GI_GIP_MAGIC, GI_GIP_MAJOR, &rd, &st);
-    uint64_t fp = rd ? gi_reader_fingerprint(rd) : 0;
-    gi_reader_free(rd);
+    uint64_t fp = gip ? gip->fingerprint : 0;
     if (!rc)
         rc = gi_rt_new(s, &rt, &st);
     double t_load = gi_now();

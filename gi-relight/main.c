@@ -127,7 +127,6 @@ int main(int argc, char **argv)
     gi_relight *rl = NULL;
     gi_gbuffer *gb = NULL;
     gi_shade *sh = NULL;
-    gi_reader *rd = NULL;
     FILE *tf = NULL;
     float *rgb = NULL;
     gi_frame fr = {0};
@@ -145,7 +144,10 @@ int main(int argc, char **argv)
         last = nf - 1;
         if (frames) {
             const char *dash = strchr(frames, '-');
-            if (dash && dash != frames) {
+            int named = gi_script_find_frame(sc, frames);
+            if (named >= 0) {
+                first = last = (size_t)named;
+            } else if (dash && dash != frames) {
                 char a[64];
                 size_t la = (size_t)(dash - frames);
                 if (la >= sizeof a)
@@ -171,10 +173,7 @@ int main(int argc, char **argv)
     }
     if (!rc)
         rc = gi_gip_read(gip_path, s, &gip, &st);
-    if (!rc)
-        rc = gi_reader_open(gip_path, GI_GIP_MAGIC, GI_GIP_MAJOR, &rd, &st);
-    uint64_t fp = rd ? gi_reader_fingerprint(rd) : 0;
-    gi_reader_free(rd);
+    uint64_t fp = gip ? gip->fingerprint : 0;
     if (!rc)
         rc = gi_hvds_read(gih_path, s, fp, gip->num_photons, &h, &st);
     if (!rc && mkdir(outdir, 0777) && errno != EEXIST)
@@ -219,7 +218,9 @@ int main(int argc, char **argv)
                 rc = gi_status_set(&st, GI_EXIT_SYSTEM, "out of memory");
                 break;
             }
-            rc = gi_relight_set_materials(rl, fr.materials, NULL, &st);
+            /* the relight keeps a pointer to the materials: give it our copy, not the frame's */
+            memcpy(applied_mats, fr.materials, s->num_materials * sizeof *applied_mats);
+            rc = gi_relight_set_materials(rl, applied_mats, NULL, &st);
             any_mat = 1;
             changed |= GI_CHANGED_MATERIALS;
         } else {
@@ -229,7 +230,8 @@ int main(int argc, char **argv)
                     any_mat = 1;
                 }
             if (any_mat) {
-                rc = gi_relight_set_materials(rl, fr.materials, mchg, &st);
+                memcpy(applied_mats, fr.materials, s->num_materials * sizeof *applied_mats);
+                rc = gi_relight_set_materials(rl, applied_mats, mchg, &st);
                 changed |= GI_CHANGED_MATERIALS;
             }
         }

@@ -8,7 +8,7 @@
  * looking along +z, so +x is image-left and the red wall at x ~ 0.55 m is on
  * the left). Each quad is oriented so its front faces the inside of the room
  * (walls) or the outside of a block; the light quad is not geometry. Seven named
- * Lambertian materials (roughness 1, metallic 0, double-sided) so variant
+ * Lambertian materials (roughness 1, metallic 0, single-sided: walls face into the box, blocks face out) so variant
  * scripts can change each: Floor, Ceiling, BackWall, LeftWall (red),
  * RightWall (green), ShortBlock, TallBlock.
  *
@@ -274,13 +274,13 @@ int main(int argc, char **argv)
     gi_gltf_builder *b = gi_gltf_builder_new();
     if (!b)
         gi_die(GI_EXIT_SYSTEM, "out of memory");
-    int m_floor = gi_gltf_add_material(b, "Floor", white, 1.0f, 0.0f, NULL, 1);
-    int m_ceil = gi_gltf_add_material(b, "Ceiling", white, 1.0f, 0.0f, NULL, 1);
-    int m_back = gi_gltf_add_material(b, "BackWall", white, 1.0f, 0.0f, NULL, 1);
-    int m_left = gi_gltf_add_material(b, "LeftWall", red, 1.0f, 0.0f, NULL, 1);
-    int m_right = gi_gltf_add_material(b, "RightWall", green, 1.0f, 0.0f, NULL, 1);
-    int m_short = gi_gltf_add_material(b, "ShortBlock", white, 1.0f, 0.0f, NULL, 1);
-    int m_tall = gi_gltf_add_material(b, "TallBlock", white, 1.0f, 0.0f, NULL, 1);
+    int m_floor = gi_gltf_add_material(b, "Floor", white, 1.0f, 0.0f, NULL, 0);
+    int m_ceil = gi_gltf_add_material(b, "Ceiling", white, 1.0f, 0.0f, NULL, 0);
+    int m_back = gi_gltf_add_material(b, "BackWall", white, 1.0f, 0.0f, NULL, 0);
+    int m_left = gi_gltf_add_material(b, "LeftWall", red, 1.0f, 0.0f, NULL, 0);
+    int m_right = gi_gltf_add_material(b, "RightWall", green, 1.0f, 0.0f, NULL, 0);
+    int m_short = gi_gltf_add_material(b, "ShortBlock", white, 1.0f, 0.0f, NULL, 0);
+    int m_tall = gi_gltf_add_material(b, "TallBlock", white, 1.0f, 0.0f, NULL, 0);
 
     /* Room centre (mm): middle of the interior extents. */
     const double room[3] = {278.0, 274.4, 279.6};
