@@ -17,7 +17,7 @@
  * moves one light retraces only that light, and a material change retraces
  * nothing: irradiance E (lux, RGB, with visibility) and the mean incident
  * direction (exact for point, spot and directional lights). */
-#define GI_RELIGHT_SLOTS 32
+#define GI_RELIGHT_SLOTS GI_RELIGHT_MAX_LIGHTS
 typedef struct light_slot {
     gi_light light;
     float *e;          /* 3 per entry */

@@ -25,6 +25,9 @@ extern "C" {
 
 typedef struct gi_relight gi_relight;
 
+/* Lights that may be on in one frame (each has a cache of its light at every entry point). */
+#define GI_RELIGHT_MAX_LIGHTS 32
+
 typedef struct gi_relight_times {
     double entry;     /* entry-point flux from the lights (s) */
     double photons;   /* flux along the paths */

@@ -60,7 +60,8 @@ int main(int argc, char **argv)
     gi_hvds_opts_default(&o);
     const char *out = NULL;
     int threads = 0, c;
-    while ((c = getopt_long(argc, argv, "hVo:s:j:qv", longopts, NULL)) != -1) {
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":hVo:s:j:qv", longopts, NULL)) != -1) {
         switch (c) {
         case 'h': help(); return 0;
         case 'V': gi_opt_print_version("gi-hvds"); return 0;
@@ -84,7 +85,11 @@ int main(int argc, char **argv)
         case 'j': threads = gi_opt_threads(optarg); break;
         case 'q': gi_log_set_verbosity(-1); break;
         case 'v': gi_log_set_verbosity(gi_log_verbosity() + 1); break;
-        default: gi_usage_error("bad option");
+        case ':': gi_usage_error("option '%s' needs an argument", argv[optind - 1]);
+        default:
+            if (optopt && optopt < 256)
+                gi_usage_error("unknown option '-%c'", optopt);
+            gi_usage_error("unknown option '%s'", argv[optind - 1]);
         }
     }
     if (argc - optind != 2)
@@ -94,6 +99,7 @@ int main(int argc, char **argv)
     if (o.r_min > 0.0f && o.r_max > 0.0f && o.r_min > o.r_max)
         gi_usage_error("--r-min %g is larger than --r-max %g", o.r_min, o.r_max);
     const char *scene_path = argv[optind], *gip_path = argv[optind + 1];
+    gi_opt_check_output(out);
     gi_container_install_signal_cleanup();
 
     double t0 = gi_now();
@@ -130,9 +136,9 @@ int main(int argc, char **argv)
                 (unsigned long long)h->num_rays, h->num_pairs, (unsigned long long)h->rays_descended);
         gi_info("octree: %u nodes, depth %u, leaves per level %s; %u keys", h->num_nodes, h->depth, levels,
                 h->num_keys);
-        gi_info("%s: %lld bytes; per photon %.2f bytes (key) + %.2f (.gip compact); per gathering ray "
+        gi_info("%s: %lld bytes; per photon %.2f bytes (key) + %.2f (.gip compact, read every frame); per gathering ray "
                 "%.2f bytes; load %.2f s, build %.2f s, total %.2f s",
-                out, size, 4.0, 4.0, h->num_rays ? 6.0 * h->num_pairs / (double)h->num_rays : 0.0,
+                out, size, 4.0, (double)gi_gip_compact_bytes(gip) / (double)(gip->num_photons ? gip->num_photons : 1), h->num_rays ? 6.0 * h->num_pairs / (double)h->num_rays : 0.0,
                 t_load - t0, t_build - t_load, gi_now() - t0);
     }
     gi_hvds_free(h);

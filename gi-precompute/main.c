@@ -199,33 +199,6 @@ static void parse_args(int argc, char **argv, precompute_opts *o)
         gi_usage_error("-o '%s' would overwrite the scene", o->output);
 }
 
-/* The output's directory must exist and be writable before any work starts. */
-static void check_output_dir(const char *out)
-{
-    char dir[4096];
-    const char *slash = strrchr(out, '/');
-    if (!slash) {
-        strcpy(dir, ".");
-    } else if (slash == out) {
-        strcpy(dir, "/");
-    } else {
-        size_t n = (size_t)(slash - out);
-        if (n >= sizeof dir)
-            gi_die(GI_EXIT_SYSTEM, "%s: path too long", out);
-        memcpy(dir, out, n);
-        dir[n] = '\0';
-    }
-    struct stat sb;
-    if (stat(dir, &sb) != 0)
-        gi_die(GI_EXIT_SYSTEM, "%s: cannot write into '%s': %s", out, dir, strerror(errno));
-    if (!S_ISDIR(sb.st_mode))
-        gi_die(GI_EXIT_SYSTEM, "%s: cannot write into '%s': Not a directory", out, dir);
-    if (access(dir, W_OK | X_OK) != 0)
-        gi_die(GI_EXIT_SYSTEM, "%s: cannot write into '%s': %s", out, dir, strerror(errno));
-    if (stat(out, &sb) == 0 && S_ISDIR(sb.st_mode))
-        gi_die(GI_EXIT_SYSTEM, "%s: Is a directory", out);
-}
-
 int main(int argc, char **argv)
 {
     gi_log_init("gi-precompute");
@@ -233,7 +206,7 @@ int main(int argc, char **argv)
     parse_args(argc, argv, &o);
     gi_log_set_verbosity(o.verbosity);
     gi_container_install_signal_cleanup();
-    check_output_dir(o.output);
+    gi_opt_check_output(o.output);
 
     double t0 = gi_now();
     gi_status st = {0};

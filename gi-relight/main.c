@@ -90,7 +90,8 @@ int main(int argc, char **argv)
     float ev = 0.0f;
     gi_shade_opts so;
     gi_shade_opts_default(&so);
-    while ((c = getopt_long(argc, argv, "hVo:s:j:qv", longopts, NULL)) != -1) {
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":hVo:s:j:qv", longopts, NULL)) != -1) {
         switch (c) {
         case 'h': help(); return 0;
         case 'V': gi_opt_print_version("gi-relight"); return 0;
@@ -105,7 +106,11 @@ int main(int argc, char **argv)
         case 'j': threads = gi_opt_threads(optarg); break;
         case 'q': gi_log_set_verbosity(-1); break;
         case 'v': gi_log_set_verbosity(gi_log_verbosity() + 1); break;
-        default: gi_usage_error("bad option");
+        case ':': gi_usage_error("option '%s' needs an argument", argv[optind - 1]);
+        default:
+            if (optopt && optopt < 256)
+                gi_usage_error("unknown option '-%c'", optopt);
+            gi_usage_error("unknown option '%s'", argv[optind - 1]);
         }
     }
     if (argc - optind != 4)
@@ -168,6 +173,14 @@ int main(int argc, char **argv)
             rc = gi_script_frame(sc, s, i, &fr, &st);
             if (!rc && !fr.has_camera)
                 rc = gi_status_set(&st, GI_EXIT_DATA, "%s: frame '%s' has no camera", script_path, fr.name);
+            if (!rc) {
+                size_t on = 0;
+                for (size_t l = 0; l < fr.num_lights; l++)
+                    on += fr.lights[l].enabled ? 1 : 0;
+                if (on > GI_RELIGHT_MAX_LIGHTS)
+                    rc = gi_status_set(&st, GI_EXIT_DATA, "%s: frame '%s' has %zu lights on; gi-relight handles "
+                                       "at most %d at once", script_path, fr.name, on, GI_RELIGHT_MAX_LIGHTS);
+            }
             gi_frame_release(&fr);
         }
     }
