@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # bench/lib.sh - helpers of bench/run.sh (sourced, not run): failure bookkeeping,
 # peak-memory measurement, cache keys, EXR metadata, summary-line parsing.
 # Needs: BIN, RAW (set by run.sh). Bash only; awk is POSIX (mawk works).

@@ -46,6 +46,7 @@ for t in iinfo gnuplot sha256sum; do
 done
 
 # ---- settings ----------------------------------------------------------------------
+# shellcheck disable=SC2034  # read indirectly (${!name}) by bench_scene
 # Per scene: frames compared with the path tracer, reference spp, path-tracer curve,
 # spp of the cheap second-seed image that measures the reference's noise, the options
 # every run gets, and the sweep. Sweep entries: "default" or PARAM=VALUE with PARAM one
@@ -70,8 +71,10 @@ else
 fi
 # Tool defaults (gi-precompute --help, gi-hvds --help), for the parameter columns.
 DEF_PHOTONS=1000000; DEF_RMAXDIV=64; DEF_RAYS=256; DEF_CELLS=16
+# shellcheck disable=SC2034  # read indirectly
 # Paper, Table 1 (ms; GeForce 7800 GTX): T_di T_pe T_hvds T_fg T_splat T_tot T_light T_view T_mat
 PAPER_cornell_box="6,11,11,5,76,109,109,87,1271"
+# shellcheck disable=SC2034  # read indirectly
 PAPER_sponza="15,15,12,27,122,191,191,164,1310"
 
 T_START=$(date +%s)
