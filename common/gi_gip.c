@@ -3,6 +3,7 @@
  * docs/formats.md, section ".gip (gi-precompute)"). */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_gip.h"
+#include "gi_rt.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -231,37 +232,13 @@ uint64_t gi_gip_detail_bytes(const gi_gip *g) { return (uint64_t)DETL_PER_PHOTON
 
 /* ---- geometry of a stored vertex --------------------------------------------- */
 
-typedef struct surf {
-    gi_vec3 p, ng, ns; /* ng: unit CCW normal; ns: unit interpolated normal */
-    float uv0[2], uv1[2];
-} surf;
-
-static void surface_at(const gi_scene *s, uint32_t tri, float u, float v, surf *sf)
-{
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
-    gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
-    gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
-    float w = 1.0f - u - v;
-    gi_vec3 e1 = gi_sub(p1, p0), e2 = gi_sub(p2, p0);
-    sf->p = gi_add(p0, gi_add(gi_scale(e1, u), gi_scale(e2, v)));
-    sf->ng = gi_norm(gi_cross(e1, e2));
-    gi_vec3 n0 = gi_v3p(s->normals + 3 * (size_t)ix[0]);
-    gi_vec3 n1 = gi_v3p(s->normals + 3 * (size_t)ix[1]);
-    gi_vec3 n2 = gi_v3p(s->normals + 3 * (size_t)ix[2]);
-    gi_vec3 ns = gi_add(gi_scale(n0, w), gi_add(gi_scale(n1, u), gi_scale(n2, v)));
-    float l = gi_len(ns);
-    sf->ns = l > 1e-12f ? gi_scale(ns, 1.0f / l) : sf->ng;
-    for (int k = 0; k < 2; k++) {
-        sf->uv0[k] = w * s->uv0[2 * ix[0] + k] + u * s->uv0[2 * ix[1] + k] + v * s->uv0[2 * ix[2] + k];
-        sf->uv1[k] = w * s->uv1[2 * ix[0] + k] + u * s->uv1[2 * ix[1] + k] + v * s->uv1[2 * ix[2] + k];
-    }
-}
+/* The surface at a stored vertex comes from gi_scene_surface (gi_rt.h), the
+ * same reconstruction the ray tracer uses at its hits. */
 
 void gi_gip_vertex(const gi_gip *g, const gi_scene *s, uint64_t i, float pos[3], float nrm[3])
 {
-    surf sf;
-    surface_at(s, g->tri[i], g->bary[2 * i], g->bary[2 * i + 1], &sf);
+    gi_surface sf;
+    gi_scene_surface(s, g->tri[i], g->bary[2 * i], g->bary[2 * i + 1], &sf);
     gi_vec3 ng = g->side[i] ? gi_neg(sf.ng) : sf.ng;
     gi_vec3 ns = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
     gi_v3store(pos, sf.p);
@@ -277,8 +254,8 @@ void gi_gip_reflectance(const gi_gip *g, const gi_scene *s, const gi_material *m
     if (!(gi_dot(wi, wi) > 0.0f) || !(g->pdf[i] > 0.0f) || g->q[i] == 0)
         return;
     uint32_t t = g->tri[i];
-    surf sf;
-    surface_at(s, t, g->bary[2 * i], g->bary[2 * i + 1], &sf);
+    gi_surface sf;
+    gi_scene_surface(s, t, g->bary[2 * i], g->bary[2 * i + 1], &sf);
     gi_vec3 ng = g->side[i] ? gi_neg(sf.ng) : sf.ng;
     gi_vec3 ns = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
     if (gi_dot(ns, wi) <= 0.0f)

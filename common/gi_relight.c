@@ -143,17 +143,10 @@ void gi_relight_free(gi_relight *r)
 /* Base colour at photon vertex i (texture applied). */
 static gi_vec3 vertex_base(const gi_relight *r, const gi_material *m, uint64_t i)
 {
-    const gi_scene *s = r->s;
-    uint32_t t = r->gip->tri[i];
-    float u = r->gip->bary[2 * i], v = r->gip->bary[2 * i + 1], w = 1.0f - u - v;
-    const uint32_t *ix = s->indices + 3 * (size_t)t;
-    float uv0[2], uv1[2];
-    for (int k = 0; k < 2; k++) {
-        uv0[k] = w * s->uv0[2 * ix[0] + k] + u * s->uv0[2 * ix[1] + k] + v * s->uv0[2 * ix[2] + k];
-        uv1[k] = w * s->uv1[2 * ix[0] + k] + u * s->uv1[2 * ix[1] + k] + v * s->uv1[2 * ix[2] + k];
-    }
+    gi_surface sf;
+    gi_scene_surface(r->s, r->gip->tri[i], r->gip->bary[2 * i], r->gip->bary[2 * i + 1], &sf);
     float rgb[3];
-    gi_scene_base_color(s, m, uv0, uv1, rgb);
+    gi_scene_base_color(r->s, m, sf.uv0, sf.uv1, rgb);
     return gi_v3p(rgb);
 }
 

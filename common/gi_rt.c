@@ -164,14 +164,13 @@ int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax
     return r.tfar < 0.0f;
 }
 
-void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf)
+void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surface *sf)
 {
-    const gi_scene *s = rt->s;
-    const uint32_t *ix = s->indices + 3 * (size_t)hit->tri;
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
     gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
     gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
     gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
-    float u = hit->u, v = hit->v, w = 1.0f - u - v;
+    float w = 1.0f - u - v;
     gi_vec3 e1 = gi_sub(p1, p0), e2 = gi_sub(p2, p0);
     sf->p = gi_add(p0, gi_add(gi_scale(e1, u), gi_scale(e2, v)));
     sf->ng = gi_norm(gi_cross(e1, e2));
@@ -185,8 +184,13 @@ void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf)
         sf->uv0[k] = w * s->uv0[2 * ix[0] + k] + u * s->uv0[2 * ix[1] + k] + v * s->uv0[2 * ix[2] + k];
         sf->uv1[k] = w * s->uv1[2 * ix[0] + k] + u * s->uv1[2 * ix[1] + k] + v * s->uv1[2 * ix[2] + k];
     }
-    sf->tri = hit->tri;
-    sf->material = s->tri_material[hit->tri];
+    sf->tri = tri;
+    sf->material = s->tri_material[tri];
+}
+
+void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf)
+{
+    gi_scene_surface(rt->s, hit->tri, hit->u, hit->v, sf);
 }
 
 /* Offset by integer ulps (large |p|) or a fixed tiny step (|p| near 0). */

@@ -44,6 +44,8 @@ int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tma
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax);
 /* Fill the surface record of a hit. */
 void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);
+/* The same for triangle tri at barycentrics (u, v) of scene s (no ray tracer needed). */
+void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surface *sf);
 /* Move p off its surface along ng (towards the side dir points to) by a few
  * ulps scaled with |p|: robust for scenes from millimetres to kilometres
  * (Waechter and Binder 2019, reimplemented). */
