@@ -246,8 +246,21 @@ void gi_texture_sample(const gi_texture *t, float u, float v, float rgba[4])
     float fx0 = floorf(x), fy0 = floorf(y);
     float fx = x - fx0, fy = y - fy0;
     int x0 = (int)fx0, y0 = (int)fy0;
-    int xa = wrap_index(x0, w, t->wrap_s), xb = wrap_index(x0 + 1, w, t->wrap_s);
-    int ya = wrap_index(y0, h, t->wrap_t), yb = wrap_index(y0 + 1, h, t->wrap_t);
+    int xa, xb, ya, yb;
+    if (x0 >= 0 && x0 + 1 < w) { /* inside: no wrapping (the common case) */
+        xa = x0;
+        xb = x0 + 1;
+    } else {
+        xa = wrap_index(x0, w, t->wrap_s);
+        xb = wrap_index(x0 + 1, w, t->wrap_s);
+    }
+    if (y0 >= 0 && y0 + 1 < h) {
+        ya = y0;
+        yb = y0 + 1;
+    } else {
+        ya = wrap_index(y0, h, t->wrap_t);
+        yb = wrap_index(y0 + 1, h, t->wrap_t);
+    }
     const float *p00 = t->rgba + 4 * ((size_t)ya * (size_t)w + (size_t)xa);
     const float *p10 = t->rgba + 4 * ((size_t)ya * (size_t)w + (size_t)xb);
     const float *p01 = t->rgba + 4 * ((size_t)yb * (size_t)w + (size_t)xa);
