@@ -258,33 +258,76 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         const gi_light *L = &sl->light;
         int ns = L->type == GI_LIGHT_AREA ? ks * ks : 1;
         size_t l = lid[u];
-#pragma omp parallel for schedule(dynamic, 512) num_threads(r->threads)
-        for (uint32_t e = 0; e < g->num_entries; e++) {
+        /* entry points come in surface order, so neighbours in the list are
+         * near each other: their shadow rays go to Embree as packets */
+        enum { CHUNK = 256 };
+        uint32_t nchunks = (g->num_entries + CHUNK - 1) / CHUNK;
+        size_t cap = (size_t)CHUNK * (size_t)ns;
+        int fail = 0;
+#pragma omp parallel num_threads(r->threads)
+        {
             gi_rt_thread_init();
-            gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
-            gi_rng rng;
-            gi_rng_seed(&rng, r->seed, e, l);
-            gi_vec3 acc = gi_v3(0, 0, 0), dacc = gi_v3(0, 0, 0);
-            for (int j = 0; j < ns; j++) {
-                float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
-                float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
-                gi_light_sample ls;
-                if (!gi_light_sample_at(L, x, u1, u2, &ls))
-                    continue;
-                float cosi = gi_dot(nn, ls.wi);
-                if (cosi <= 0.0f)
-                    continue;
-                gi_vec3 o = gi_rt_offset(x, nn, ls.wi);
-                float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
-                if (gi_rt_occluded(r->rt, o, ls.wi, 0.0f, tmax))
-                    continue;
-                gi_vec3 ev = gi_scale(ls.value, cosi);
-                acc = gi_add(acc, ev);
-                dacc = gi_madd(dacc, ls.wi, gi_luminance(ev) + 1e-30f);
+            gi_vec3 *ro = malloc(cap * sizeof *ro), *rd = malloc(cap * sizeof *rd), *rv = malloc(cap * sizeof *rv);
+            float *rt = malloc(cap * sizeof *rt);
+            uint32_t *re = malloc(cap * sizeof *re);
+            uint8_t *occ = malloc(cap);
+            gi_vec3 *acc = malloc(CHUNK * sizeof *acc), *dacc = malloc(CHUNK * sizeof *dacc);
+            int ok = ro && rd && rv && rt && re && occ && acc && dacc;
+            if (!ok) {
+#pragma omp atomic write
+                fail = 1;
             }
-            gi_v3store(sl->e + 3 * (size_t)e, gi_scale(acc, 1.0f / (float)ns));
-            gi_v3store(sl->dir + 3 * (size_t)e, gi_norm(dacc));
+#pragma omp for schedule(dynamic, 2)
+            for (uint32_t ch = 0; ch < nchunks; ch++) {
+                if (!ok)
+                    continue;
+                uint32_t e0 = ch * CHUNK, e1 = e0 + CHUNK < g->num_entries ? e0 + CHUNK : g->num_entries;
+                int nr = 0;
+                for (uint32_t e = e0; e < e1; e++) {
+                    gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
+                    acc[e - e0] = dacc[e - e0] = gi_v3(0, 0, 0);
+                    gi_rng rng;
+                    gi_rng_seed(&rng, r->seed, e, l);
+                    for (int j = 0; j < ns; j++) {
+                        float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
+                        float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
+                        gi_light_sample ls;
+                        if (!gi_light_sample_at(L, x, u1, u2, &ls))
+                            continue;
+                        float cosi = gi_dot(nn, ls.wi);
+                        if (cosi <= 0.0f)
+                            continue;
+                        ro[nr] = gi_rt_offset(x, nn, ls.wi);
+                        rd[nr] = ls.wi;
+                        rt[nr] = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+                        rv[nr] = gi_scale(ls.value, cosi);
+                        re[nr] = e - e0;
+                        nr++;
+                    }
+                }
+                gi_rt_occluded_n(r->rt, nr, ro, rd, rt, occ);
+                for (int q = 0; q < nr; q++) {
+                    if (occ[q])
+                        continue;
+                    acc[re[q]] = gi_add(acc[re[q]], rv[q]);
+                    dacc[re[q]] = gi_madd(dacc[re[q]], rd[q], gi_luminance(rv[q]) + 1e-30f);
+                }
+                for (uint32_t e = e0; e < e1; e++) {
+                    gi_v3store(sl->e + 3 * (size_t)e, gi_scale(acc[e - e0], 1.0f / (float)ns));
+                    gi_v3store(sl->dir + 3 * (size_t)e, gi_norm(dacc[e - e0]));
+                }
+            }
+            free(ro);
+            free(rd);
+            free(rv);
+            free(rt);
+            free(re);
+            free(occ);
+            free(acc);
+            free(dacc);
         }
+        if (fail)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory tracing light '%s'", L->name);
         sl->used = 1;
     }
     double t0b = gi_now();

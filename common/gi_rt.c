@@ -164,6 +164,39 @@ int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax
     return r.tfar < 0.0f;
 }
 
+void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, const float *tmax,
+                      uint8_t *occluded)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (int base = 0; base < n; base += 16) {
+        int m = n - base < 16 ? n - base : 16;
+        RTC_ALIGN(64) int valid[16];
+        RTC_ALIGN(64) struct RTCRay16 r;
+        for (int i = 0; i < 16; i++) {
+            int k = base + (i < m ? i : 0);
+            valid[i] = i < m ? -1 : 0;
+            r.org_x[i] = o[k].x;
+            r.org_y[i] = o[k].y;
+            r.org_z[i] = o[k].z;
+            r.dir_x[i] = d[k].x;
+            r.dir_y[i] = d[k].y;
+            r.dir_z[i] = d[k].z;
+            r.tnear[i] = 0.0f;
+            r.tfar[i] = tmax[k];
+            r.time[i] = 0.0f;
+            r.mask[i] = 0xffffffffu;
+            r.id[i] = (unsigned)i;
+            r.flags[i] = 0;
+        }
+        tl_rays += (uint64_t)m;
+        rtcOccluded16(valid, rt->scene, &ctx, &r);
+        for (int i = 0; i < m; i++)
+            occluded[base + i] = r.tfar[i] < 0.0f;
+    }
+}
+
 void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surface *sf)
 {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;

@@ -42,6 +42,10 @@ void gi_rt_thread_init(void);
 int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax, gi_hit *hit);
 /* 1 if anything blocks o + t d for t in (tmin, tmax). */
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax);
+/* n shadow rays o[i] + t d[i], t in (0, tmax[i]), traced as coherent packets
+ * of 16 (neighbouring pixels towards one light); occluded[i] = 1 if blocked. */
+void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, const float *tmax,
+                      uint8_t *occluded);
 /* Fill the surface record of a hit. */
 void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);
 /* The same for triangle tri at barycentrics (u, v) of scene s (no ray tracer needed). */
