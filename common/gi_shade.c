@@ -18,6 +18,7 @@
 #include "gi_math.h"
 #include "gi_pt.h"
 #include "gi_rng.h"
+#include "gi_texfilter.h"
 
 #define GI_SHADE_K 8 /* gathering points kept per pixel sample (largest weights) */
 
@@ -36,6 +37,7 @@ struct gi_shade {
     const gi_scene *s;
     const gi_rt *rt;
     const gi_hvds *h;
+    gi_texfilter *tf;   /* mip pyramids for footprint-filtered textures */
     float reach;        /* weights reach this many effective radii */
     /* influence grid: each gathering point is listed in every cell its
      * influence sphere (reach * radius) touches */
@@ -47,7 +49,13 @@ struct gi_shade {
     /* per-sample cache, valid for pcam / pw x ph / pss */
     gi_gpixel *px;
     ssurf *sf;
-    int pw, ph, pss;
+    int pw, ph, pss, ptexf, paa;
+    /* edge antialiasing (ss == 1): pixel -> edge number (UINT32_MAX: none),
+     * edge number -> pixel, and ne samples per edge pixel */
+    uint32_t *eidx, *epix;
+    ssurf *esf;
+    size_t nedge;
+    int ne;
     gi_camera pcam;
     int valid;
     float jit[2 * 64];  /* sub-pixel position of each sample pass (ss <= 8) */
@@ -58,6 +66,8 @@ void gi_shade_opts_default(gi_shade_opts *o)
     memset(o, 0, sizeof *o);
     o->area_samples = 16;
     o->ss = 1;
+    o->tex_filter = 1;
+    o->aa = 3;
     o->direct = 1;
     o->indirect = 1;
     o->seed = 1;
@@ -80,6 +90,11 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
     sh->rt = rt;
     sh->h = h;
     sh->reach = 2.0f;
+    int rc = gi_texfilter_new(s, &sh->tf, st);
+    if (rc) {
+        free(sh);
+        return rc;
+    }
     uint32_t n = h->num_gpoints;
     /* cell: a few times the median influence radius, bounded to keep the grid small */
     float ext = 0.0f;
@@ -191,6 +206,10 @@ void gi_shade_free(gi_shade *sh)
     free(sh->pidx);
     free(sh->px);
     free(sh->sf);
+    free(sh->esf);
+    free(sh->epix);
+    free(sh->eidx);
+    gi_texfilter_free(sh->tf);
     free(sh);
 }
 
@@ -297,13 +316,87 @@ static int same_camera(const gi_camera *a, const gi_camera *b)
            !memcmp(a->up, b->up, sizeof a->up) && a->yfov == b->yfov && a->znear == b->znear && a->zfar == b->zfar;
 }
 
-/* Rasterise and fill the per-sample cache. */
-static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h, int ss, int threads,
-                        gi_status *st)
+/* Fill the cached record of a sample at pixel position (fx, fy) that sees
+ * triangle tri (0-based) at barycentrics (u, v); step: the sample's footprint
+ * in pixels (for the texture filter). */
+static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, uint32_t tri, float u, float v,
+                        float fx, float fy, float step, int texf, int weights, ssurf *o)
+{
+    const gi_scene *s = sh->s;
+    gi_vec3 eye = gi_v3p(cam->position);
+    o->valid = 0;
+    o->npairs = 0;
+    o->tsurf = INFINITY;
+    gi_hit hit = {0.0f, tri, u, v};
+    gi_surface sf;
+    gi_rt_surface(sh->rt, &hit, &sf);
+    const gi_material *m = &s->materials[sf.material];
+    o->tsurf = gi_len(gi_sub(sf.p, eye));
+    gi_vec3 wo = gi_norm(gi_sub(eye, sf.p));
+    int front = gi_dot(sf.ng, wo) > 0.0f;
+    o->material = sf.material;
+    /* sidedness is a property of the scene's material; scripts change colours, not sides */
+    if (!front && !m->double_sided)
+        return;
+    gi_vec3 ng = front ? sf.ng : gi_neg(sf.ng);
+    gi_vec3 nsn = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
+    if (gi_dot(nsn, wo) <= 0.0f)
+        nsn = ng;
+    gi_v3store(o->p, sf.p);
+    gi_v3store(o->ng, ng);
+    gi_v3store(o->ns, nsn);
+    gi_v3store(o->wo, wo);
+    /* texel = base colour with a unit factor, averaged over the sample's
+     * footprint like the reference's box-filtered pixel */
+    if (texf && m->base_color_tex >= 0) {
+        gi_vec3 ro, dx, dy;
+        gi_camera_ray(cam, w, h, fx + step, fy, &ro, &dx);
+        gi_camera_ray(cam, w, h, fx, fy + step, &ro, &dy);
+        gi_texfilter_texel(sh->tf, m, sf.tri, eye, sf.p, dx, dy, o->texel);
+    } else {
+        gi_material unit = *m;
+        unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+        gi_scene_base_color(s, &unit, sf.uv0, sf.uv1, o->texel);
+    }
+    if (weights)
+        o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
+    o->valid = 1;
+}
+
+/* 1 if the samples of two neighbouring pixels see different surfaces: one
+ * sees nothing, other materials, a crease (shading normals > ~18 deg apart)
+ * or a depth step (b off a's plane by more than 4 pixel footprints). */
+static int discontinuous(const ssurf *a, const ssurf *b, float pix_angle)
+{
+    if (a->valid != b->valid)
+        return 1;
+    if (!a->valid)
+        return 0;
+    if (a->material != b->material)
+        return 1;
+    if (a->ns[0] * b->ns[0] + a->ns[1] * b->ns[1] + a->ns[2] * b->ns[2] < 0.95f)
+        return 1;
+    float d[3] = {b->p[0] - a->p[0], b->p[1] - a->p[1], b->p[2] - a->p[2]};
+    float off = fabsf(d[0] * a->ng[0] + d[1] * a->ng[1] + d[2] * a->ng[2]);
+    return off > 4.0f * pix_angle * fminf(a->tsurf, b->tsurf);
+}
+
+/* Rasterise and fill the per-sample cache; with ss == 1 and aa >= 3, find the
+ * pixels on geometric edges and give each aa*aa - 1 more samples (Embree
+ * camera rays, stratified over the pixel around the centre sample). */
+static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h, int ss, int texf,
+                        int aa, int threads, gi_status *st)
 {
     size_t np = (size_t)w * (size_t)h, ns = np * (size_t)(ss * ss);
     free(sh->px);
     free(sh->sf);
+    free(sh->esf);
+    free(sh->epix);
+    free(sh->eidx);
+    sh->esf = NULL;
+    sh->epix = sh->eidx = NULL;
+    sh->nedge = 0;
+    sh->ne = 0;
     sh->px = malloc(ns * sizeof *sh->px);
     sh->sf = malloc(ns * sizeof *sh->sf);
     sh->valid = 0;
@@ -311,6 +404,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for a %dx%d G-buffer with %dx%d samples", w, h, ss, ss);
     /* one jittered position per stratum (the same for every pixel of a pass):
      * with ss > 1 the pixel average is an unbiased box filter like the reference's */
+    double tv0 = gi_now();
     gi_rng rng;
     gi_rng_seed(&rng, 0x5eed, (uint64_t)ss, 0);
     for (int k = 0; k < ss * ss; k++) {
@@ -323,7 +417,8 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
             return rc;
     }
     const gi_scene *s = sh->s;
-    gi_vec3 eye = gi_v3p(cam->position);
+    float step = 1.0f / (float)ss;
+    double tv1 = gi_now();
 #pragma omp parallel for schedule(dynamic, 4096) num_threads(threads)
     for (size_t i = 0; i < ns; i++) {
         const gi_gpixel *g = &sh->px[i];
@@ -333,35 +428,98 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         o->tsurf = INFINITY;
         if (!g->tri || g->tri > s->num_triangles)
             continue;
-        gi_hit hit = {0.0f, g->tri - 1, g->u, g->v};
-        gi_surface sf;
-        gi_rt_surface(sh->rt, &hit, &sf);
-        const gi_material *m = &s->materials[sf.material];
-        o->tsurf = gi_len(gi_sub(sf.p, eye));
-        gi_vec3 wo = gi_norm(gi_sub(eye, sf.p));
-        int front = gi_dot(sf.ng, wo) > 0.0f;
-        o->material = sf.material;
-        /* sidedness is a property of the scene's material; scripts change colours, not sides */
-        if (!front && !m->double_sided)
-            continue;
-        gi_vec3 ng = front ? sf.ng : gi_neg(sf.ng);
-        gi_vec3 nsn = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
-        if (gi_dot(nsn, wo) <= 0.0f)
-            nsn = ng;
-        gi_v3store(o->p, sf.p);
-        gi_v3store(o->ng, ng);
-        gi_v3store(o->ns, nsn);
-        gi_v3store(o->wo, wo);
-        /* texel = base colour with a unit factor */
-        gi_material unit = *m;
-        unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
-        gi_scene_base_color(s, &unit, sf.uv0, sf.uv1, o->texel);
-        o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
-        o->valid = 1;
+        size_t k = i / np, pix = i % np;
+        float fx = (float)(pix % (size_t)w) + sh->jit[2 * k], fy = (float)(pix / (size_t)w) + sh->jit[2 * k + 1];
+        fill_sample(sh, cam, w, h, g->tri - 1, g->u, g->v, fx, fy, step, texf, 1, o);
     }
+    double tv2 = gi_now();
+    if (ss == 1 && aa >= 3) {
+        sh->eidx = malloc(np * sizeof *sh->eidx);
+        if (!sh->eidx)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for edge samples");
+        float pix_angle = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
+        size_t nedge = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                size_t pix = (size_t)y * (size_t)w + (size_t)x;
+                const ssurf *a = &sh->sf[pix];
+                int edge = (x > 0 && discontinuous(a, a - 1, pix_angle)) ||
+                           (x + 1 < w && discontinuous(a, a + 1, pix_angle)) ||
+                           (y > 0 && discontinuous(a, a - w, pix_angle)) ||
+                           (y + 1 < h && discontinuous(a, a + w, pix_angle));
+                sh->eidx[pix] = edge ? (uint32_t)nedge++ : UINT32_MAX;
+            }
+        int ne = aa * aa - 1;
+        sh->epix = malloc((nedge + 1) * sizeof *sh->epix);
+        sh->esf = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esf);
+        if (!sh->epix || !sh->esf)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu edge pixels", nedge);
+        for (size_t pix = 0; pix < np; pix++)
+            if (sh->eidx[pix] != UINT32_MAX)
+                sh->epix[sh->eidx[pix]] = (uint32_t)pix;
+        sh->nedge = nedge;
+        sh->ne = ne;
+        float estep = 1.0f / (float)aa;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
+        for (size_t e = 0; e < nedge; e++) {
+            gi_rt_thread_init();
+            size_t pix = sh->epix[e];
+            int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
+            gi_rng r;
+            gi_rng_seed(&r, 0xed9e, pix, 0);
+            for (int j = 0, c = 0; c < aa * aa; c++) {
+                if (c == aa * aa / 2)
+                    continue; /* the centre cell: the G-buffer's sample */
+                float fx = (float)x + ((float)(c % aa) + gi_rng_float(&r)) * estep;
+                float fy = (float)y + ((float)(c / aa) + gi_rng_float(&r)) * estep;
+                ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j++];
+                o->valid = 0;
+                o->npairs = 0;
+                o->tsurf = INFINITY;
+                gi_vec3 ro, rd;
+                gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
+                gi_hit hit;
+                if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, &hit))
+                    continue;
+                fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, estep, 0, 0, o);
+                if (!o->valid)
+                    continue;
+                /* the texel (filtered over its pixel) and interpolation weights
+                 * of the centre's or a neighbour's sample on the same surface;
+                 * computed afresh only on a surface none of them sees */
+                const ssurf *cand[5] = {&sh->sf[pix], x > 0 ? &sh->sf[pix - 1] : NULL,
+                                        x + 1 < w ? &sh->sf[pix + 1] : NULL, y > 0 ? &sh->sf[pix - w] : NULL,
+                                        y + 1 < h ? &sh->sf[pix + w] : NULL};
+                int reused = 0;
+                for (int q = 0; q < 5 && !reused; q++)
+                    if (cand[q] && cand[q]->valid && !discontinuous(o, cand[q], pix_angle)) {
+                        o->npairs = cand[q]->npairs;
+                        memcpy(o->gp, cand[q]->gp, sizeof o->gp);
+                        memcpy(o->w, cand[q]->w, sizeof o->w);
+                        memcpy(o->texel, cand[q]->texel, sizeof o->texel);
+                        reused = 1;
+                    }
+                if (!reused && texf && s->materials[o->material].base_color_tex >= 0) {
+                    gi_vec3 r0, dx, dy;
+                    gi_camera_ray(cam, w, h, fx + estep, fy, &r0, &dx);
+                    gi_camera_ray(cam, w, h, fx, fy + estep, &r0, &dy);
+                    gi_texfilter_texel(sh->tf, &s->materials[o->material], hit.tri, gi_v3p(cam->position),
+                                       gi_v3p(o->p), dx, dy, o->texel);
+                }
+                if (!reused)
+                    o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
+            }
+        }
+        gi_verbose("edge antialiasing: %zu of %zu pixels (%.1f%%) get %d more samples", nedge, np,
+                   100.0 * (double)nedge / (double)np, ne);
+    }
+    gi_verbose("view: rasterise %.1f ms, %zu surfaces and weights %.1f ms, edge samples %.1f ms",
+               1e3 * (tv1 - tv0), ns, 1e3 * (tv2 - tv1), 1e3 * (gi_now() - tv2));
     sh->pw = w;
     sh->ph = h;
     sh->pss = ss;
+    sh->ptexf = texf;
+    sh->paa = aa;
     sh->pcam = *cam;
     sh->valid = 1;
     return 0;
@@ -491,17 +649,188 @@ static void visible_area_lights(const gi_shade *sh, const gi_camera *cam, int w,
     }
 }
 
+/* Shadow rays of one thread, traced in coherent packets: each ray carries the
+ * unshadowed contribution it adds to acc[idx] when nothing blocks it. */
+enum { SB_CAP = 2048 };
+typedef struct sbatch {
+    const gi_rt *rt;
+    int n;
+    gi_vec3 o[SB_CAP], d[SB_CAP], c[SB_CAP];
+    float t[SB_CAP];
+    uint32_t idx[SB_CAP];
+    uint8_t occ[SB_CAP];
+    gi_vec3 *acc;
+} sbatch;
+
+static void sb_flush(sbatch *b)
+{
+    if (!b->n)
+        return;
+    gi_rt_occluded_n(b->rt, b->n, b->o, b->d, b->t, b->occ);
+    for (int q = 0; q < b->n; q++)
+        if (!b->occ[q])
+            b->acc[b->idx[q]] = gi_add(b->acc[b->idx[q]], b->c[q]);
+    b->n = 0;
+}
+
+/* Queue the shadow rays of light lt (index l) at sample sf; the sample's
+ * random numbers come from (seed, id, l), so the image does not depend on the
+ * thread count or the batching. Contributions are not yet divided by the
+ * number of light samples. */
+static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const gi_light *lt, size_t l, int ka,
+                    uint64_t seed, uint64_t id, uint32_t slot)
+{
+    int queued = 0;
+    const gi_material *m = &mats[sf->material];
+    gi_vec3 p = gi_v3p(sf->p), ng = gi_v3p(sf->ng), nsn = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
+    gi_bsdf bs;
+    gi_bsdf_init(&bs, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+    int nsmp = lt->type == GI_LIGHT_AREA ? ka * ka : 1;
+    gi_rng rng;
+    gi_rng_seed(&rng, seed, id, l);
+    for (int j = 0; j < nsmp; j++) {
+        float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
+        float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
+        gi_light_sample ls;
+        if (!gi_light_sample_at(lt, p, u1, u2, &ls))
+            continue;
+        float cosi = gi_dot(nsn, ls.wi);
+        if (cosi <= 0.0f || gi_dot(ng, ls.wi) <= 0.0f)
+            continue;
+        gi_vec3 f = gi_bsdf_eval(&bs, nsn, wo, ls.wi);
+        if (gi_maxc(f) <= 0.0f)
+            continue;
+        if (b->n == SB_CAP)
+            sb_flush(b);
+        int q = b->n++;
+        b->o[q] = gi_rt_offset(p, ng, ls.wi);
+        b->d[q] = ls.wi;
+        b->t[q] = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+        b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
+        b->idx[q] = slot;
+        queued++;
+    }
+    return queued;
+}
+
+/* Emission plus direct light of n samples (sample i at samp[i], random id
+ * ids[i]) into out[i]. acc: n scratch vectors. vis (may be NULL): for every
+ * light that is not an area light, vis[l * vstride + i] = 0 when sample i
+ * sent it no shadow ray, 1 when lit, 2 when shadowed. */
+static void direct_samples(sbatch *b, const ssurf *const *samp, const uint64_t *ids, size_t n,
+                           const gi_light *lights, size_t num_lights, const gi_material *mats, int ka,
+                           const gi_shade_opts *o, gi_vec3 *acc, gi_vec3 *out, uint8_t *vis, size_t vstride)
+{
+    for (size_t e = 0; e < n; e++)
+        out[e] = samp[e]->valid ? gi_v3p(mats[samp[e]->material].emission) : gi_v3(0, 0, 0);
+    if (!o->direct)
+        return;
+    b->acc = acc;
+    for (size_t l = 0; l < num_lights; l++) {
+        const gi_light *lt = &lights[l];
+        if (!lt->enabled)
+            continue;
+        uint8_t *vl = vis && lt->type != GI_LIGHT_AREA ? vis + l * vstride : NULL;
+        for (size_t e = 0; e < n; e++) {
+            acc[e] = gi_v3(0, 0, 0);
+            int q = samp[e]->valid ? sb_light(b, samp[e], mats, lt, l, ka, o->seed, ids[e], (uint32_t)e) : 0;
+            if (vl)
+                vl[e] = (uint8_t)(q ? 2 : 0); /* 2 until the flush finds it lit */
+        }
+        sb_flush(b);
+        if (vl)
+            for (size_t e = 0; e < n; e++)
+                if (vl[e] && gi_maxc(acc[e]) > 0.0f)
+                    vl[e] = 1;
+        float inv = 1.0f / (float)(lt->type == GI_LIGHT_AREA ? ka * ka : 1);
+        for (size_t e = 0; e < n; e++)
+            out[e] = gi_add(out[e], gi_scale(acc[e], inv));
+    }
+}
+
+/* Indirect light of one sample: interpolated irradiance times the reflectance.
+ * Low-frequency approximation: the whole BRDF sees the indirect light as
+ * diffuse (its hemispherical albedo, at most 1, over pi). */
+static inline gi_vec3 indirect_sample(const ssurf *sf, const gi_material *mats, const float *gpe)
+{
+    const gi_material *m = &mats[sf->material];
+    float e[3] = {0, 0, 0};
+    for (int q = 0; q < sf->npairs; q++) {
+        const float *g = gpe + 3 * (size_t)sf->gp[q];
+        e[0] += sf->w[q] * g[0];
+        e[1] += sf->w[q] * g[1];
+        e[2] += sf->w[q] * g[2];
+    }
+    gi_bsdf b;
+    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+    return gi_scale(gi_mul(gi_bsdf_max_albedo(&b), gi_v3p(e)), GI_INV_PIf);
+}
+
+/* Light lt at aa*aa - 1 more points of pixel (x, y)'s plane (stratified
+ * around the centre sample, as for geometric edges): replaces the centre
+ * sample's share of the light by the average over all aa*aa points. acc:
+ * NE + 1 scratch vectors. */
+static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *cam, int w, int h, int x, int y,
+                              const gi_light *lt, size_t l, const gi_material *mats, const gi_shade_opts *o,
+                              gi_vec3 *acc, float *out)
+{
+    const int aa = sh->paa, NE = sh->ne;
+    size_t pix = (size_t)y * (size_t)w + (size_t)x;
+    const ssurf *c = &sh->sf[pix];
+    gi_vec3 p = gi_v3p(c->p), ng = gi_v3p(c->ng), eye = gi_v3p(cam->position);
+    float pn = gi_dot(gi_sub(p, eye), ng);
+    ssurf sub = *c;
+    gi_rng r;
+    gi_rng_seed(&r, 0xed9e, pix, 0); /* the geometric edges' sub-pixel positions */
+    b->acc = acc;
+    for (int j = 0, cell = 0; cell < aa * aa; cell++) {
+        if (cell == aa * aa / 2)
+            continue;
+        float fx = (float)x + ((float)(cell % aa) + gi_rng_float(&r)) / (float)aa;
+        float fy = (float)y + ((float)(cell / aa) + gi_rng_float(&r)) / (float)aa;
+        acc[j] = gi_v3(0, 0, 0);
+        gi_vec3 ro, rd;
+        gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
+        float dn = gi_dot(rd, ng), t = pn / dn;
+        if (dn < 0.0f && t > 0.0f && isfinite(t)) {
+            gi_vec3 q = gi_add(ro, gi_scale(rd, t));
+            gi_v3store(sub.p, q);
+            gi_v3store(sub.wo, gi_neg(rd));
+            sb_light(b, &sub, mats, lt, l, 1, o->seed, pix * 64u + 1u + (uint64_t)j, (uint32_t)j);
+        } else {
+            /* the plane is not seen there: keep the centre sample's value */
+            sb_light(b, c, mats, lt, l, 1, o->seed, pix * 64u, (uint32_t)j);
+        }
+        j++;
+    }
+    acc[NE] = gi_v3(0, 0, 0);
+    sb_light(b, c, mats, lt, l, 1, o->seed, pix * 64u, (uint32_t)NE);
+    sb_flush(b);
+    /* the pixel holds the centre's contribution (acc[NE], exact re-trace of
+     * the same ray); swap it for the mean of all aa*aa */
+    gi_vec3 sum = gi_v3(0, 0, 0);
+    for (int j = 0; j <= NE; j++)
+        sum = gi_add(sum, acc[j]);
+    gi_vec3 delta = gi_sub(gi_scale(sum, 1.0f / (float)(NE + 1)), acc[NE]);
+    out[0] += delta.x;
+    out[1] += delta.y;
+    out[2] += delta.z;
+}
+
 int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
                    const gi_light *lights, size_t num_lights, const gi_material *mats,
                    const float *gpe, const gi_shade_opts *o, float *rgb, gi_shade_times *times,
                    gi_status *st)
 {
     int ss = o->ss < 1 ? 1 : o->ss;
+    int aa = o->aa >= 3 ? (o->aa | 1) : 1;
     size_t np = (size_t)w * (size_t)h;
     int threads = o->threads > 0 ? o->threads : omp_get_num_procs();
     double t0 = gi_now();
-    if (!sh->valid || sh->pw != w || sh->ph != h || sh->pss != ss || !same_camera(&sh->pcam, cam)) {
-        int rc = prepare_view(sh, gb, cam, w, h, ss, threads, st);
+    int texf = o->tex_filter != 0;
+    if (!sh->valid || sh->pw != w || sh->ph != h || sh->pss != ss || sh->ptexf != texf || sh->paa != aa ||
+        !same_camera(&sh->pcam, cam)) {
+        int rc = prepare_view(sh, gb, cam, w, h, ss, texf, aa, threads, st);
         if (rc)
             return rc;
     }
@@ -511,57 +840,116 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     for (size_t l = 0; l < num_lights; l++)
         has_area |= lights[l].enabled && lights[l].type == GI_LIGHT_AREA;
     const int S = ss * ss;
-    /* pass 1: emission, visible area lights and direct light */
-#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
-    for (int y = 0; y < h; y++) {
+    const int NE = sh->ne;
+    /* pass 1: emission and direct light, a row at a time (then the edge
+     * pixels' extra samples, 64 pixels at a time); shadow rays of
+     * neighbouring samples towards one light go to Embree as packets */
+    size_t rowlen = (size_t)w * (size_t)S, chunk = 64 * (size_t)(NE > 0 ? NE : 1);
+    size_t cap = rowlen > chunk ? rowlen : chunk;
+    /* shadow-edge refinement (ss == 1, aa >= 3): per light and pixel, lit or not */
+    uint8_t *vis = NULL;
+    if (S == 1 && NE > 0 && o->direct && num_lights) {
+        vis = malloc(num_lights * np);
+        if (!vis)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for shadow edges");
+    }
+    int fail = 0;
+#pragma omp parallel num_threads(threads)
+    {
         gi_rt_thread_init();
-        for (int x = 0; x < w; x++) {
-            size_t pix = (size_t)y * (size_t)w + (size_t)x;
-            gi_vec3 sum = gi_v3(0, 0, 0);
-            for (int k = 0; k < S; k++) {
-                const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-                if (!sf->valid)
+        sbatch *b = malloc(sizeof *b);
+        gi_vec3 *acc = malloc(cap * sizeof *acc), *L = malloc(cap * sizeof *L);
+        const ssurf **samp = malloc(cap * sizeof *samp);
+        uint64_t *ids = malloc(cap * sizeof *ids);
+        int ok = b && acc && L && samp && ids;
+        if (!ok) {
+#pragma omp atomic write
+            fail = 1;
+        } else {
+            b->rt = sh->rt;
+            b->n = 0;
+        }
+#pragma omp for schedule(dynamic, 2)
+        for (int y = 0; y < h; y++) {
+            if (!ok)
+                continue; /* every thread must reach the loop; the frame fails below */
+            size_t row0 = (size_t)y * (size_t)w;
+            for (size_t e = 0; e < rowlen; e++) {
+                size_t k = e % (size_t)S, pix = row0 + e / (size_t)S;
+                samp[e] = &sh->sf[k * np + pix];
+                ids[e] = pix * 64u + (uint64_t)k;
+            }
+            direct_samples(b, samp, ids, rowlen, lights, num_lights, mats, ka, o, acc, L, vis ? vis + row0 : NULL,
+                           np);
+            for (int x = 0; x < w; x++) {
+                gi_vec3 sum = gi_v3(0, 0, 0);
+                for (int k = 0; k < S; k++)
+                    sum = gi_add(sum, L[(size_t)x * (size_t)S + (size_t)k]);
+                gi_v3store(rgb + 3 * (row0 + (size_t)x), gi_scale(sum, 1.0f / (float)S));
+            }
+        }
+        /* edge pixels: the centre sample (in rgb now) and NE more, averaged */
+        size_t nchunks = (sh->nedge + 63) / 64;
+#pragma omp for schedule(dynamic, 1)
+        for (size_t c = 0; c < nchunks; c++) {
+            if (!ok)
+                continue;
+            size_t e0 = c * 64, e1 = e0 + 64 < sh->nedge ? e0 + 64 : sh->nedge;
+            size_t n = (e1 - e0) * (size_t)NE;
+            for (size_t i = 0; i < n; i++) {
+                size_t e = e0 + i / (size_t)NE, j = i % (size_t)NE;
+                samp[i] = &sh->esf[e * (size_t)NE + j];
+                ids[i] = (uint64_t)sh->epix[e] * 64u + 1u + (uint64_t)j;
+            }
+            direct_samples(b, samp, ids, n, lights, num_lights, mats, ka, o, acc, L, NULL, 0);
+            for (size_t e = e0; e < e1; e++) {
+                float *px = rgb + 3 * (size_t)sh->epix[e];
+                gi_vec3 sum = gi_v3p(px);
+                for (int j = 0; j < NE; j++)
+                    sum = gi_add(sum, L[(e - e0) * (size_t)NE + (size_t)j]);
+                gi_v3store(px, gi_scale(sum, 1.0f / (float)(NE + 1)));
+            }
+        }
+        /* shadow edges: a pixel (not on a geometric edge) lit by a point,
+         * spot or directional light while a neighbour is shadowed (or the
+         * reverse) gets that light at NE more points of its plane */
+        if (vis) {
+#pragma omp for schedule(dynamic, 4)
+            for (int y = 0; y < h; y++) {
+                if (!ok)
                     continue;
-                const gi_material *m = &mats[sf->material];
-                gi_vec3 p = gi_v3p(sf->p), ng = gi_v3p(sf->ng), nsn = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
-                gi_vec3 L = gi_v3p(m->emission);
-                if (o->direct) {
-                    gi_bsdf b;
-                    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+                for (int x = 0; x < w; x++) {
+                    size_t pix = (size_t)y * (size_t)w + (size_t)x;
+                    if (sh->eidx[pix] != UINT32_MAX || !sh->sf[pix].valid)
+                        continue;
                     for (size_t l = 0; l < num_lights; l++) {
                         const gi_light *lt = &lights[l];
-                        if (!lt->enabled)
+                        if (!lt->enabled || lt->type == GI_LIGHT_AREA)
                             continue;
-                        int nsmp = lt->type == GI_LIGHT_AREA ? ka * ka : 1;
-                        gi_rng rng;
-                        gi_rng_seed(&rng, o->seed, pix * 64u + (uint64_t)k, l);
-                        gi_vec3 acc = gi_v3(0, 0, 0);
-                        for (int j = 0; j < nsmp; j++) {
-                            float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
-                            float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
-                            gi_light_sample ls;
-                            if (!gi_light_sample_at(lt, p, u1, u2, &ls))
-                                continue;
-                            float cosi = gi_dot(nsn, ls.wi);
-                            if (cosi <= 0.0f || gi_dot(ng, ls.wi) <= 0.0f)
-                                continue;
-                            gi_vec3 f = gi_bsdf_eval(&b, nsn, wo, ls.wi);
-                            if (gi_maxc(f) <= 0.0f)
-                                continue;
-                            gi_vec3 org = gi_rt_offset(p, ng, ls.wi);
-                            float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
-                            if (gi_rt_occluded(sh->rt, org, ls.wi, 0.0f, tmax))
-                                continue;
-                            acc = gi_add(acc, gi_scale(gi_mul(f, ls.value), cosi));
-                        }
-                        L = gi_add(L, gi_scale(acc, 1.0f / (float)nsmp));
+                        const uint8_t *vl = vis + l * np;
+                        uint8_t v0 = vl[pix];
+                        if (!v0)
+                            continue;
+                        int differs = (x > 0 && vl[pix - 1] && vl[pix - 1] != v0) ||
+                                      (x + 1 < w && vl[pix + 1] && vl[pix + 1] != v0) ||
+                                      (y > 0 && vl[pix - w] && vl[pix - w] != v0) ||
+                                      (y + 1 < h && vl[pix + w] && vl[pix + w] != v0);
+                        if (!differs)
+                            continue;
+                        shadow_edge_pixel(sh, b, cam, w, h, x, y, lt, l, mats, o, acc, rgb + 3 * pix);
                     }
                 }
-                sum = gi_add(sum, L);
             }
-            gi_v3store(rgb + 3 * pix, gi_scale(sum, 1.0f / (float)S));
         }
+        free(b);
+        free(acc);
+        free(L);
+        free(samp);
+        free(ids);
     }
+    free(vis);
+    if (fail)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for direct light");
     if (has_area)
         visible_area_lights(sh, cam, w, h, lights, num_lights, rgb, threads);
     double t2 = gi_now();
@@ -570,25 +958,23 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
 #pragma omp parallel for schedule(static) num_threads(threads)
         for (size_t pix = 0; pix < np; pix++) {
             gi_vec3 sum = gi_v3(0, 0, 0);
+            int count = S;
             for (int k = 0; k < S; k++) {
                 const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-                if (!sf->valid)
-                    continue;
-                const gi_material *m = &mats[sf->material];
-                float e[3] = {0, 0, 0};
-                for (int q = 0; q < sf->npairs; q++) {
-                    const float *g = gpe + 3 * (size_t)sf->gp[q];
-                    e[0] += sf->w[q] * g[0];
-                    e[1] += sf->w[q] * g[1];
-                    e[2] += sf->w[q] * g[2];
+                if (sf->valid)
+                    sum = gi_add(sum, indirect_sample(sf, mats, gpe));
+            }
+            uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
+            if (e != UINT32_MAX) {
+                for (int j = 0; j < NE; j++) {
+                    const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
+                    if (sf->valid)
+                        sum = gi_add(sum, indirect_sample(sf, mats, gpe));
                 }
-                /* low-frequency approximation: the whole BRDF sees the indirect light as diffuse */
-                gi_bsdf b;
-                gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
-                sum = gi_add(sum, gi_mul(gi_bsdf_max_albedo(&b), gi_v3p(e)));
+                count += NE;
             }
             float *out = rgb + 3 * pix;
-            float sc = GI_INV_PIf / (float)S;
+            float sc = 1.0f / (float)count;
             out[0] += sum.x * sc;
             out[1] += sum.y * sc;
             out[2] += sum.z * sc;

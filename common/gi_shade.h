@@ -28,6 +28,10 @@ typedef struct gi_shade gi_shade;
 typedef struct gi_shade_opts {
     int area_samples;   /* jittered samples per area light per pixel sample (default 16) */
     int ss;             /* ss x ss G-buffer samples per pixel (default 1: pixel centre) */
+    int tex_filter;     /* 1 (default): textures averaged over each sample's footprint
+                           (gi_texfilter); 0: one bilinear lookup at the sample */
+    int aa;             /* with ss == 1: pixels on geometric edges (silhouettes, creases,
+                           material borders) get aa x aa samples (odd, default 3; 1: off) */
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;

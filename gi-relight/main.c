@@ -37,6 +37,9 @@ static void help(void)
            "  --timings FILE.csv      one row per frame: the stages of the paper's Table 1\n"
            "  --area-samples N        jittered samples per area light per pixel (default 16)\n"
            "  --ss N                  N x N samples per pixel (default 1)\n"
+           "  --aa N                  with --ss 1, N x N samples in pixels on geometric edges\n"
+           "                          (odd N; default 3; 1 turns it off)\n"
+           "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
            "  -s, --seed S            random seed (default 1)\n"
            "  -j, --threads T         threads (default: all cores)\n"
            "  -q, --quiet / -v, --verbose / -V, --version / -h, --help\n"
@@ -45,7 +48,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA };
 
 static int lights_equal(const gi_light *a, size_t na, const gi_light *b, size_t nb)
 {
@@ -82,7 +85,9 @@ int main(int argc, char **argv)
         {"output", required_argument, 0, 'o'},   {"frames", required_argument, 0, OPT_FRAMES},
         {"png", no_argument, 0, OPT_PNG},        {"exposure", required_argument, 0, OPT_EXPO},
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
-        {"ss", required_argument, 0, OPT_SS},    {"seed", required_argument, 0, 's'},
+        {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
+        {"aa", required_argument, 0, OPT_AA},
+        {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},        {0, 0, 0, 0}};
     const char *outdir = NULL, *frames = NULL, *timings = NULL;
@@ -102,6 +107,19 @@ int main(int argc, char **argv)
         case OPT_TIMINGS: timings = optarg; break;
         case OPT_AREA: so.area_samples = (int)gi_opt_long("--area-samples", optarg, 1, 4096); break;
         case OPT_SS: so.ss = (int)gi_opt_long("--ss", optarg, 1, 8); break;
+        case OPT_AA:
+            so.aa = (int)gi_opt_long("--aa", optarg, 1, 7);
+            if (!(so.aa & 1))
+                gi_usage_error("--aa: expected an odd number (1, 3, 5 or 7), got %d", so.aa);
+            break;
+        case OPT_TEXF:
+            if (!strcmp(optarg, "on"))
+                so.tex_filter = 1;
+            else if (!strcmp(optarg, "off"))
+                so.tex_filter = 0;
+            else
+                gi_usage_error("--tex-filter: expected on or off, got '%s'", optarg);
+            break;
         case 's': so.seed = gi_opt_u64("--seed", optarg); break;
         case 'j': threads = gi_opt_threads(optarg); break;
         case 'q': gi_log_set_verbosity(-1); break;
