@@ -31,11 +31,16 @@ typedef struct gi_shade_opts {
     int tex_filter;     /* 1 (default): textures averaged over each sample's footprint
                            (gi_texfilter); 0: one bilinear lookup at the sample */
     int aa;             /* with ss == 1: pixels on geometric edges (silhouettes, creases,
-                           material borders) get aa x aa samples (odd, default 3; 1: off) */
+                           material borders) and hard shadow edges get aa x aa samples
+                           (odd; 1: off; 0, the default: 3 from 200k pixels up, 5 from
+                           20k, 7 below) */
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;
     int threads;
+    int no_cache;       /* 1: recompute every light's direct light every frame (tests
+                           compare it with the cached path; gi-relight sets it when
+                           GI_RELIGHT_NO_CACHE=1) */
 } gi_shade_opts;
 
 typedef struct gi_shade_times {

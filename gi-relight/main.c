@@ -37,8 +37,9 @@ static void help(void)
            "  --timings FILE.csv      one row per frame: the stages of the paper's Table 1\n"
            "  --area-samples N        jittered samples per area light per pixel (default 16)\n"
            "  --ss N                  N x N samples per pixel (default 1)\n"
-           "  --aa N                  with --ss 1, N x N samples in pixels on geometric edges\n"
-           "                          (odd N; default 3; 1 turns it off)\n"
+           "  --aa N                  with --ss 1, N x N samples in pixels on geometric and shadow\n"
+           "                          edges (odd N; 1 turns it off; default: 3 for 200k pixels\n"
+           "                          or more, 5 from 20k, 7 below)\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
            "  -s, --seed S            random seed (default 1)\n"
            "  -j, --threads T         threads (default: all cores)\n"
@@ -136,6 +137,10 @@ int main(int argc, char **argv)
     if (!outdir)
         gi_usage_error("missing -o OUTDIR");
     so.threads = threads;
+    {
+        const char *nc = getenv("GI_RELIGHT_NO_CACHE");
+        so.no_cache = nc && !strcmp(nc, "1");
+    }
     const char *scene_path = argv[optind], *gip_path = argv[optind + 1], *gih_path = argv[optind + 2],
                *script_path = argv[optind + 3];
     gi_container_install_signal_cleanup();

@@ -110,6 +110,14 @@ check "... the first of them changed 'lights materials camera'" \
   [ "$(col "$TMP/f12.csv" 1 changed)" = "lights materials camera" ]
 "$GC" diff "$TMP/f12/lamp.exr" "$O/lamp.exr" >"$TMP/stdout" 2>/dev/null
 check "... and frame 2 is the same as in the full run (rms=$(val rms))" [ "$(val rms)" = 0 ]
+# Direct light is cached per light and view; a material change recomputes only the pixels
+# that see it. With the cache off every frame is computed afresh: the same pixels.
+expect_success "the same frames with the direct-light cache off" \
+  env GI_RELIGHT_NO_CACHE=1 "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/nc" -q
+for f in base moved lamp blue-wall; do
+  "$GC" diff "$TMP/nc/$f.exr" "$O/$f.exr" >"$TMP/stdout" 2>/dev/null
+  check "$f: cached and fresh direct light give the same pixels (rms=$(val rms))" [ "$(val rms)" = 0 ]
+done
 expect_success "--frames lamp" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/fn" --frames lamp -q
 check "--frames lamp writes lamp.exr only" [ "$(ls "$TMP/fn")" = lamp.exr ]
 expect_success "--frames 3 (an index)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/f3" --frames 3 -q
