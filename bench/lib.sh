@@ -83,9 +83,20 @@ scene_hash() {
   } | sha256sum | cut -c1-16
 }
 
+# pt_hash: content hash of the sources that decide a path-traced pixel (the path tracer,
+# BRDF, lights, ray tracing, scene loading and script), so that a change to any of them
+# renders the references again.
+pt_hash() {
+  local r=${ROOT:-.}
+  cat "$r"/common/gi_pt.[ch] "$r"/common/gi_brdf.[ch] "$r"/common/gi_light.[ch] "$r"/common/gi_rt.[ch] \
+      "$r"/common/gi_scene.[ch] "$r"/common/gi_script.[ch] "$r"/common/gi_rng.h 2>/dev/null |
+    sha256sum | cut -c1-16
+}
+
 # cache_key SCENE_HASH SCRIPT FRAME WxH SPP SEED: key of one rendered image.
 cache_key() {
-  { echo "scene $1"; echo "frame $3 size $4 spp $5 seed $6"; cat "$2"; } | sha256sum | cut -c1-20
+  { echo "scene $1"; echo "pt ${PT_HASH:-$(pt_hash)}"; echo "frame $3 size $4 spp $5 seed $6"; cat "$2"; } |
+    sha256sum | cut -c1-20
 }
 
 # ---- summary lines of the tools (stderr) -------------------------------------------

@@ -65,7 +65,7 @@ else
   CB_NOISE_SPP=64
   CB_PC_BASE=""; CB_HV_BASE=""
   CB_SWEEP="default photons=250000 photons=4000000 rmax-div=32 rmax-div=128 rays=64 rays=1024 cells=4 cells=64"
-  SP_FRAMES="sun-moved arcade-moved"; SP_REF_SPP=128; SP_PT_SPPS="4 16 64"; SP_NOISE_SPP=16
+  SP_FRAMES="sun-moved arcade-moved"; SP_REF_SPP=512; SP_PT_SPPS="4 16 64"; SP_NOISE_SPP=64
   SP_PC_BASE=""; SP_HV_BASE=""
   SP_SWEEP="default photons=250000 photons=4000000 rays=64"
 fi
@@ -77,6 +77,7 @@ PAPER_cornell_box="6,11,11,5,76,109,109,87,1271"
 # shellcheck disable=SC2034  # read indirectly
 PAPER_sponza="15,15,12,27,122,191,191,164,1310"
 
+PT_HASH=$(pt_hash)
 T_START=$(date +%s)
 LOAD_START=$(cut -d' ' -f1-3 /proc/loadavg)
 mkdir -p "$RESULTS" "$CACHE" "$WORK"
