@@ -388,19 +388,24 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
 /* 1 if the samples of two neighbouring pixels see different surfaces: one
  * sees nothing, other materials, a crease (shading normals > ~18 deg apart)
  * or a depth step (b off a's plane by more than 4 pixel footprints). */
-static int discontinuous(const ssurf *a, const ssurf *b, float pix_angle)
+static int discontinuity(const ssurf *a, const ssurf *b, float pix_angle)
 {
     if (a->valid != b->valid)
         return 1;
     if (!a->valid)
         return 0;
     if (a->material != b->material)
-        return 1;
+        return 2;
     if (a->ns[0] * b->ns[0] + a->ns[1] * b->ns[1] + a->ns[2] * b->ns[2] < 0.95f)
-        return 1;
+        return 3;
     float d[3] = {b->p[0] - a->p[0], b->p[1] - a->p[1], b->p[2] - a->p[2]};
     float off = fabsf(d[0] * a->ng[0] + d[1] * a->ng[1] + d[2] * a->ng[2]);
-    return off > 4.0f * pix_angle * fminf(a->tsurf, b->tsurf);
+    return off > 4.0f * pix_angle * fminf(a->tsurf, b->tsurf) ? 4 : 0;
+}
+
+static int discontinuous(const ssurf *a, const ssurf *b, float pix_angle)
+{
+    return discontinuity(a, b, pix_angle) != 0;
 }
 
 /* Rasterise and fill the per-sample cache; with ss == 1 and aa >= 3, find the
@@ -460,17 +465,25 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         if (!sh->eidx)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for edge samples");
         float pix_angle = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
-        size_t nedge = 0;
+        size_t nedge = 0, why[5] = {0, 0, 0, 0, 0};
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 size_t pix = (size_t)y * (size_t)w + (size_t)x;
                 const ssurf *a = &sh->sf[pix];
-                int edge = (x > 0 && discontinuous(a, a - 1, pix_angle)) ||
-                           (x + 1 < w && discontinuous(a, a + 1, pix_angle)) ||
-                           (y > 0 && discontinuous(a, a - w, pix_angle)) ||
-                           (y + 1 < h && discontinuous(a, a + w, pix_angle));
-                sh->eidx[pix] = edge ? (uint32_t)nedge++ : UINT32_MAX;
+                int r = 0;
+                if (x > 0)
+                    r = discontinuity(a, a - 1, pix_angle);
+                if (!r && x + 1 < w)
+                    r = discontinuity(a, a + 1, pix_angle);
+                if (!r && y > 0)
+                    r = discontinuity(a, a - w, pix_angle);
+                if (!r && y + 1 < h)
+                    r = discontinuity(a, a + w, pix_angle);
+                why[r]++;
+                sh->eidx[pix] = r ? (uint32_t)nedge++ : UINT32_MAX;
             }
+        gi_verbose("edge pixels: %zu by coverage, %zu by material, %zu by crease, %zu by depth step", why[1],
+                   why[2], why[3], why[4]);
         int ne = aa * aa - 1;
         sh->epix = malloc((nedge + 1) * sizeof *sh->epix);
         sh->esf = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esf);

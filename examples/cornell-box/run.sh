@@ -26,7 +26,7 @@ echo "== 3. gi-hvds"
 "$BIN/gi-hvds" "$scene" "$OUT/cornell-box.gip" -o "$OUT/cornell-box.gih"
 echo "== 4. gi-relight: every frame of variants.script"
 "$BIN/gi-relight" -q "$scene" "$OUT/cornell-box.gip" "$OUT/cornell-box.gih" "$script" -o "$OUT/relight" \
-    --png --exposure -1 --ss 2 --timings "$OUT/timings.csv"
+    --png --exposure -1 --timings "$OUT/timings.csv"
 echo "== 5. references (gi-compare render, $SPP spp) and errors (gi-compare diff)"
 declare -A nrmse refsec
 for f in $REF_FRAMES; do
