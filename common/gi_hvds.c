@@ -247,6 +247,34 @@ static void surf_point(const gi_scene *s, uint32_t t, float u, float v, int side
     *n = side ? gi_neg(ng) : ng;
 }
 
+/* Interpolated shading normal of triangle t at point p (in its plane), on the
+ * side of the oriented geometric normal ng; ng itself when the triangle or
+ * its vertex normals are degenerate. */
+static gi_vec3 shading_normal_at(const gi_scene *s, uint32_t t, gi_vec3 p, gi_vec3 ng)
+{
+    const uint32_t *ix = s->indices + 3 * (size_t)t;
+    gi_vec3 a = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+    gi_vec3 e1 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), a);
+    gi_vec3 e2 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), a);
+    gi_vec3 q = gi_sub(p, a);
+    double d00 = gi_dot(e1, e1), d01 = gi_dot(e1, e2), d11 = gi_dot(e2, e2);
+    double d20 = gi_dot(q, e1), d21 = gi_dot(q, e2), den = d00 * d11 - d01 * d01;
+    if (!(den > 0.0) || !s->normals)
+        return ng;
+    float v = (float)((d11 * d20 - d01 * d21) / den), w = (float)((d00 * d21 - d01 * d20) / den);
+    float u = 1.0f - v - w;
+    gi_vec3 n = gi_add(gi_scale(gi_v3p(s->normals + 3 * (size_t)ix[0]), u),
+                       gi_add(gi_scale(gi_v3p(s->normals + 3 * (size_t)ix[1]), v),
+                              gi_scale(gi_v3p(s->normals + 3 * (size_t)ix[2]), w)));
+    float len = gi_len(n);
+    if (!(len > 1e-6f))
+        return ng;
+    n = gi_scale(n, 1.0f / len);
+    if (gi_dot(n, ng) < 0.0f)
+        n = gi_neg(n);
+    return gi_dot(n, ng) > 0.05f ? n : ng;
+}
+
 /* Two lifted points see each other (no geometry between them). */
 static int mutually_visible(const gi_rt *rt, gi_vec3 a, gi_vec3 na, gi_vec3 b, gi_vec3 nb, float lift)
 {
@@ -799,23 +827,32 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             gi_rt_thread_init();
             const cand *cd = &c[sel[i]];
             gi_gpoint *gp = &h->gpoints[i];
+            gi_vec3 n = gi_v3p(cd->nrm);
+            /* the irradiance is gathered about the shading normal, as the
+             * path tracer and the relight's pixels shade: on tessellated
+             * curved surfaces the triangles' own normals would facet it */
+            gi_vec3 ns = shading_normal_at(s, cd->tri, gi_v3p(cd->pos), n);
             memcpy(gp->pos, cd->pos, sizeof gp->pos);
-            memcpy(gp->nrm, cd->nrm, sizeof gp->nrm);
+            gi_v3store(gp->nrm, ns);
             gp->tri = cd->tri;
             gi_rng rng;
             gi_rng_seed(&rng, o.seed, i, 0x6a7);
-            gi_vec3 n = gi_v3p(cd->nrm);
             double inv_sum = 0.0;
             float dmin = INFINITY;
             for (int r = 0; r < N; r++) {
                 float u1 = ((float)(r % k) + gi_rng_float(&rng)) / (float)k;
                 float u2 = ((float)(r / k) + gi_rng_float(&rng)) / (float)k;
                 gi_vec3 d;
-                cosine_dir(n, u1, u2, &d);
-                float coso = fmaxf(gi_dot(d, n), 0.05f);
+                cosine_dir(ns, u1, u2, &d);
                 float dist;
-                trace_gray(s, rt, gi_v3p(cd->pos), n, d, (float)GI_PI / ((float)N * coso),
-                           &hits[i * (size_t)N + (size_t)r], &dist);
+                ghit *gh = &hits[i * (size_t)N + (size_t)r];
+                if (gi_dot(d, n) <= 0.0f) {
+                    /* below the surface itself: no light (the path tracer ends such paths) */
+                    gh->bin = -1;
+                    continue;
+                }
+                float coso = fmaxf(gi_dot(d, ns), 0.05f);
+                trace_gray(s, rt, gi_v3p(cd->pos), n, d, (float)GI_PI / ((float)N * coso), gh, &dist);
                 if (isfinite(dist)) {
                     inv_sum += 1.0 / fmax(dist, 1e-6);
                     dmin = fminf(dmin, dist);

@@ -381,7 +381,7 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
         gi_scene_base_color(s, &unit, sf.uv0, sf.uv1, o->texel);
     }
     if (weights)
-        o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
+        o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
     o->valid = 1;
 }
 
@@ -542,7 +542,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                                        gi_v3p(o->p), dx, dy, o->texel);
                 }
                 if (!reused)
-                    o->npairs = (uint8_t)interp_weights(sh, o->p, o->ng, o->gp, o->w);
+                    o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
             }
         }
         gi_verbose("edge antialiasing: %zu of %zu pixels (%.1f%%) get %d more samples", nedge, np,
