@@ -206,7 +206,8 @@ int gi_meta_add(gi_buf *meta, const char *key, const char *value, gi_status *st)
                              "meta: value of '%s' contains a newline, which cannot be recorded",
                              key);
     /* Refuse a second line with the same key (readers would refuse the file). */
-    const char *p = (const char *)meta->data, *end = p + meta->len;
+    const char *p = (const char *)meta->data;
+    const char *end = p ? p + meta->len : NULL; /* an empty buffer has no data (NULL + 0 is UB) */
     while (p && p < end) {
         const char *nl = memchr(p, '\n', (size_t)(end - p));
         const char *le = nl ? nl : end;
