@@ -7,10 +7,6 @@
 # must be within nrmse 0.1 and well under the unfiltered one-sample image
 # (--tex-filter off --aa 1). Also: each of the two halves helps on its own.
 . "$(dirname "$0")/lib.sh"
-if [ "${GI_SANITIZE:-0}" = 1 ]; then
-  echo "# skipped under SANITIZE=1 (reference too slow); runs in the plain build"
-  finish
-fi
 command -v python3 >/dev/null || { echo "ok 1 # skip python3 missing"; exit 0; }
 S=$TMP/floor.gltf
 python3 - "$S" <<'EOF' || { not_ok "writing the textured scene"; finish; }
