@@ -87,7 +87,7 @@ for sc in $scenes; do
         net_part=""
         [ "$xns" != "-" ] && net_part=" (≈${xnr}×, ${xns} s, with the reference noise removed from both errors)"
         echo "- **$sc**: a relight frame at default settings takes $ms ms at nrmse $(printf '%.3g' "$e")," \
-             "below the path tracer's measured curve (${ratio#not reached }). Extrapolated from its $xspp-spp point" \
+             "below the path tracer's measured curve ${ratio#not reached }. Extrapolated from its $xspp-spp point" \
              "on the Monte Carlo law (time ∝ error⁻²), the path tracer needs about $xs s per frame" \
              "for that error: **relight ≈${xr}× faster** at equal error$net_part"
       else
