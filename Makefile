@@ -81,6 +81,14 @@ $(BUILD)/%.o: %.cpp
 	@mkdir -p $(@D)
 	$(if $(V),,@echo "  CXX  $<";)$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
 
+# --version prints the commit: gi_opt.o is rebuilt when HEAD moves (a stamp per commit)
+COMMIT_STAMP := $(BUILD)/commit-$(GIT_COMMIT).stamp
+$(COMMIT_STAMP):
+	@mkdir -p $(@D)
+	@rm -f $(BUILD)/commit-*.stamp
+	@touch $@
+$(BUILD)/common/gi_opt.o: $(COMMIT_STAMP)
+
 $(LIBGI): $(COMMON_OBJ)
 	@mkdir -p $(@D)
 	@rm -f $@
