@@ -1,5 +1,8 @@
-/* gi_light.c - sampling of point, spot, directional and rectangular area lights. */
+/* gi_light.c - sampling of point, spot, directional, rectangular area and
+ * emissive-mesh lights. */
 #include "gi_light.h"
+
+#include "gi_emit.h"
 
 float gi_spot_falloff(const gi_light *l, float cos_angle)
 {
@@ -72,9 +75,29 @@ int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_ligh
         s->delta = 0;
         return 1;
     }
+    case GI_LIGHT_MESH: {
+        const gi_emit *e = l->mesh;
+        if (!e || !e->n)
+            return 0;
+        /* u1 picks the triangle; what is left of it places the point, so a
+         * stratified (u1, u2) stays stratified over the emitting area */
+        size_t k = gi_emit_pick(e, u1);
+        float w = e->cdf[k + 1] - e->cdf[k];
+        float r1 = w > 0.0f ? gi_clampf((u1 - e->cdf[k]) / w, 0.0f, 0.99999994f) : 0.5f;
+        gi_vec3 q, ng;
+        if (!gi_emit_sample(e, k, x, r1, u2, s, &q, &ng))
+            return 0;
+        s->value = gi_mul(s->value, col);
+        return 1;
+    }
     default:
         return 0;
     }
+}
+
+int gi_light_has_area(const gi_light *l)
+{
+    return l->type == GI_LIGHT_AREA || l->type == GI_LIGHT_MESH;
 }
 
 float gi_area_light_intersect(const gi_light *l, gi_vec3 o, gi_vec3 d, float tmin, float tmax,
@@ -123,6 +146,8 @@ float gi_light_power(const gi_light *l, float scene_cross_section_m2)
         return lum * scene_cross_section_m2;
     case GI_LIGHT_AREA:
         return GI_PIf * lum * gi_area_light_area(l);
+    case GI_LIGHT_MESH:
+        return l->mesh ? (float)l->mesh->power * lum : 0.0f;
     default:
         return 0.0f;
     }

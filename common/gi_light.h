@@ -6,7 +6,8 @@
  * lux on a surface facing the light. Area (rectangle): luminance in cd/m^2,
  * one-sided, emitting on the side of cross(u, v), Lambertian. Every value is
  * multiplied per channel by the light's colour. Spot falloff follows
- * KHR_lights_punctual: smooth between the inner and outer cone half angles. */
+ * KHR_lights_punctual: smooth between the inner and outer cone half angles.
+ * Mesh (GI_LIGHT_MESH): the emissive triangles of gi_emit.h, sampled by power. */
 #ifndef GI_LIGHT_H
 #define GI_LIGHT_H
 
@@ -30,6 +31,9 @@ typedef struct gi_light_sample {
 /* Sample light l as seen from x. Returns 0 when the light contributes nothing
  * (behind an area light, outside a spot cone, disabled). */
 int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_light_sample *s);
+/* 1 for lights with extent (area, emissive mesh): sampled at several points,
+ * soft shadows; 0 for point, spot and directional lights. */
+int gi_light_has_area(const gi_light *l);
 /* Spot cone attenuation in [0,1] for the cosine between the axis and the
  * direction from the light to the point. */
 float gi_spot_falloff(const gi_light *l, float cos_angle);

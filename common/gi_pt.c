@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "gi_brdf.h"
+#include "gi_emit.h"
 #include "gi_light.h"
 #include "gi_log.h"
 
@@ -26,12 +27,8 @@ struct gi_pt {
     float *light_cdf;   /* nl + 1, by power, used when nl > GI_PT_ALL_LIGHTS_MAX */
     float *light_prob;  /* selection probability of each light */
     int sample_all;
-    /* emissive triangles */
-    uint32_t *emit_tri;
-    float *emit_cdf;    /* ne + 1 */
-    size_t ne;
-    float emit_total;   /* sum of power weights */
-    int32_t *emit_index_of_tri; /* num_triangles, -1 if not emissive */
+    /* emissive triangles (NULL: none) */
+    gi_emit *emit;
 };
 
 void gi_pt_opts_default(gi_pt_opts *o)
@@ -54,15 +51,6 @@ static size_t upper_bound(const float *cdf, size_t n, float u)
             hi = mid;
     }
     return lo;
-}
-
-static float tri_area(const gi_scene *s, uint32_t t)
-{
-    const uint32_t *ix = s->indices + 3 * (size_t)t;
-    gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
-    gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
-    gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
-    return 0.5f * gi_len(gi_cross(gi_sub(p1, p0), gi_sub(p2, p0)));
 }
 
 int gi_pt_new(const gi_rt *rt, const gi_light *lights, size_t num_lights,
@@ -89,8 +77,7 @@ int gi_pt_new(const gi_rt *rt, const gi_light *lights, size_t num_lights,
     pt->lights = calloc(num_lights + 1, sizeof *pt->lights);
     pt->light_cdf = calloc(num_lights + 2, sizeof *pt->light_cdf);
     pt->light_prob = calloc(num_lights + 1, sizeof *pt->light_prob);
-    pt->emit_index_of_tri = malloc((s->num_triangles + 1) * sizeof *pt->emit_index_of_tri);
-    if (!pt->lights || !pt->light_cdf || !pt->light_prob || !pt->emit_index_of_tri) {
+    if (!pt->lights || !pt->light_cdf || !pt->light_prob) {
         gi_pt_free(pt);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
     }
@@ -121,40 +108,10 @@ int gi_pt_new(const gi_rt *rt, const gi_light *lights, size_t num_lights,
     }
 
     /* emissive triangles, by power */
-    size_t ne = 0;
-    for (size_t t = 0; t < s->num_triangles; t++) {
-        const gi_material *m = &materials[s->tri_material[t]];
-        float le = gi_maxc(gi_v3p(m->emission));
-        pt->emit_index_of_tri[t] = -1;
-        if (le > 0.0f && tri_area(s, (uint32_t)t) > 0.0f)
-            ne++;
-    }
-    if (ne) {
-        pt->emit_tri = malloc(ne * sizeof *pt->emit_tri);
-        pt->emit_cdf = malloc((ne + 1) * sizeof *pt->emit_cdf);
-        if (!pt->emit_tri || !pt->emit_cdf) {
-            gi_pt_free(pt);
-            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
-        }
-        double acc = 0.0;
-        pt->emit_cdf[0] = 0.0f;
-        for (size_t t = 0; t < s->num_triangles; t++) {
-            const gi_material *m = &materials[s->tri_material[t]];
-            float le = gi_luminance(gi_v3p(m->emission));
-            if (gi_maxc(gi_v3p(m->emission)) <= 0.0f)
-                continue;
-            float a = tri_area(s, (uint32_t)t);
-            if (!(a > 0.0f))
-                continue;
-            pt->emit_index_of_tri[t] = (int32_t)pt->ne;
-            pt->emit_tri[pt->ne++] = (uint32_t)t;
-            acc += (double)a * (double)fmaxf(le, 1e-6f);
-            pt->emit_cdf[pt->ne] = (float)acc;
-        }
-        pt->emit_total = (float)acc;
-        for (size_t i = 1; i <= pt->ne; i++)
-            pt->emit_cdf[i] = (float)(pt->emit_cdf[i] / acc);
-        pt->emit_cdf[pt->ne] = 1.0f;
+    int erc = gi_emit_build(s, materials, &pt->emit, st);
+    if (erc) {
+        gi_pt_free(pt);
+        return erc;
     }
     *out = pt;
     return 0;
@@ -167,9 +124,7 @@ void gi_pt_free(gi_pt *pt)
     free(pt->lights);
     free(pt->light_cdf);
     free(pt->light_prob);
-    free(pt->emit_tri);
-    free(pt->emit_cdf);
-    free(pt->emit_index_of_tri);
+    gi_emit_free(pt->emit);
     free(pt);
 }
 
@@ -180,21 +135,6 @@ static inline float power_heuristic(float a, float b)
 }
 
 static inline int finite3(gi_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
-
-/* Probability density (solid angle at x) that emitter NEE picks the point on
- * emissive triangle t at distance dist along direction d with light normal ng. */
-static float emit_pdf(const gi_pt *pt, uint32_t t, gi_vec3 d, float dist, gi_vec3 ng)
-{
-    int32_t k = pt->emit_index_of_tri[t];
-    if (k < 0)
-        return 0.0f;
-    float psel = pt->emit_cdf[k + 1] - pt->emit_cdf[k];
-    float a = tri_area(pt->s, t);
-    float cosl = fabsf(gi_dot(ng, d));
-    if (!(cosl > 0.0f) || !(a > 0.0f))
-        return 0.0f;
-    return psel * dist * dist / (cosl * a);
-}
 
 typedef struct vertex {
     gi_vec3 p, ng, ns, wo;
@@ -225,7 +165,7 @@ static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_sampler *rng)
         if (gi_maxc(f) <= 0.0f)
             continue;
         gi_vec3 o = gi_rt_offset(v->p, v->ng, ls.wi);
-        float tmax = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+        float tmax = gi_rt_shadow_tmax(v->p, o, ls.dist);
         if (gi_rt_occluded(pt->rt, o, ls.wi, 0.0f, tmax))
             continue;
         float psel = pt->light_prob[i];
@@ -234,39 +174,29 @@ static gi_vec3 direct_light(const gi_pt *pt, const vertex *v, gi_sampler *rng)
             w = power_heuristic(ls.pdf * psel, gi_bsdf_pdf(&v->bsdf, v->ns, v->wo, ls.wi));
         L = gi_add(L, gi_scale(gi_mul(f, ls.value), cosn * w / psel));
     }
-    if (pt->ne) {
-        float u = gi_sampler_1d(rng);
-        size_t k = upper_bound(pt->emit_cdf, pt->ne, u);
-        uint32_t t = pt->emit_tri[k];
-        const gi_scene *s = pt->s;
-        const uint32_t *ix = s->indices + 3 * (size_t)t;
-        gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
-        gi_vec3 p1 = gi_v3p(s->positions + 3 * (size_t)ix[1]);
-        gi_vec3 p2 = gi_v3p(s->positions + 3 * (size_t)ix[2]);
+    if (pt->emit) {
+        const gi_emit *em = pt->emit;
+        size_t k = gi_emit_pick(em, gi_sampler_1d(rng));
         float r1, r2;
         gi_sampler_2d(rng, &r1, &r2);
-        float sq = sqrtf(r1);
-        float b0 = 1.0f - sq, b1 = r2 * sq;
-        gi_vec3 q = gi_add(gi_scale(p0, b0), gi_add(gi_scale(p1, b1), gi_scale(p2, 1.0f - b0 - b1)));
-        gi_vec3 lng = gi_norm(gi_cross(gi_sub(p1, p0), gi_sub(p2, p0)));
-        gi_vec3 d = gi_sub(q, v->p);
-        float dist = gi_len(d);
-        if (dist > 0.0f) {
-            d = gi_scale(d, 1.0f / dist);
-            const gi_material *m = &pt->mats[s->tri_material[t]];
-            float cosl = -gi_dot(d, lng);
-            int visible_side = cosl > 0.0f || m->double_sided;
+        gi_light_sample ls;
+        gi_vec3 q, lng;
+        if (gi_emit_sample(em, k, v->p, r1, r2, &ls, &q, &lng)) {
+            gi_vec3 d = ls.wi;
             float cosn = gi_dot(v->ns, d);
-            if (visible_side && cosn > 0.0f && gi_dot(v->ng, d) > 0.0f) {
+            if (cosn > 0.0f && gi_dot(v->ng, d) > 0.0f) {
                 gi_vec3 f = gi_bsdf_eval(&v->bsdf, v->ns, v->wo, d);
-                float pdf = emit_pdf(pt, t, d, dist, lng);
-                if (gi_maxc(f) > 0.0f && pdf > 0.0f) {
+                if (gi_maxc(f) > 0.0f) {
+                    /* short of the emitter by a relative margin and the
+                     * origin's offset: an absolute offset at the emitter's
+                     * end is below Embree's precision in t from a few metres
+                     * away, and the emitter then shadows itself
+                     * (test_emissive_configuration_factor) */
                     gi_vec3 o = gi_rt_offset(v->p, v->ng, d);
-                    gi_vec3 qo = gi_rt_offset(q, lng, gi_neg(d));
-                    float tmax = gi_len(gi_sub(qo, o));
+                    float tmax = gi_rt_shadow_tmax(v->p, o, ls.dist);
                     if (!gi_rt_occluded(pt->rt, o, d, 0.0f, tmax)) {
-                        float w = power_heuristic(pdf, gi_bsdf_pdf(&v->bsdf, v->ns, v->wo, d));
-                        L = gi_add(L, gi_scale(gi_mul(f, gi_v3p(m->emission)), cosn * w / pdf));
+                        float w = power_heuristic(ls.pdf, gi_bsdf_pdf(&v->bsdf, v->ns, v->wo, d));
+                        L = gi_add(L, gi_scale(gi_mul(f, ls.value), cosn * w));
                     }
                 }
             }
@@ -338,7 +268,7 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
         nv.wo = wo;
         gi_vec3 le = gi_v3p(m->emission);
         if (gi_maxc(le) > 0.0f) {
-            float ep = emit_pdf(pt, sf.tri, wi, h.t, sf.ng);
+            float ep = gi_emit_pdf(pt->emit, sf.tri, wi, h.t);
             float wgt = power_heuristic(pdf, ep);
             L = gi_add(L, gi_scale(gi_mul(beta, le), wgt));
         }

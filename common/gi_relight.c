@@ -256,7 +256,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         if (sl->used != 2)
             continue;
         const gi_light *L = &sl->light;
-        int ns = L->type == GI_LIGHT_AREA ? ks * ks : 1;
+        int ns = gi_light_has_area(L) ? ks * ks : 1;
         size_t l = lid[u];
         /* entry points come in surface order, so neighbours in the list are
          * near each other: their shadow rays go to Embree as packets */
@@ -299,7 +299,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                             continue;
                         ro[nr] = gi_rt_offset(x, nn, ls.wi);
                         rd[nr] = ls.wi;
-                        rt[nr] = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+                        rt[nr] = gi_rt_shadow_tmax(x, ro[nr], ls.dist);
                         rv[nr] = gi_scale(ls.value, cosi);
                         re[nr] = e - e0;
                         nr++;

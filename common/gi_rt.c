@@ -243,3 +243,10 @@ gi_vec3 gi_rt_offset(gi_vec3 p, gi_vec3 ng, gi_vec3 dir)
     }
     return gi_v3(r[0], r[1], r[2]);
 }
+
+float gi_rt_shadow_tmax(gi_vec3 x, gi_vec3 o, float dist)
+{
+    if (!isfinite(dist))
+        return INFINITY;
+    return fmaxf(0.0f, dist * (1.0f - 1e-3f) - gi_len(gi_sub(o, x)));
+}

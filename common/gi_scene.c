@@ -396,6 +396,7 @@ static const char *light_type_name(int type)
     case GI_LIGHT_SPOT: return "spot";
     case GI_LIGHT_DIRECTIONAL: return "directional";
     case GI_LIGHT_AREA: return "area";
+    case GI_LIGHT_MESH: return "mesh";
     default: return "unknown";
     }
 }

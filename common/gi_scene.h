@@ -53,7 +53,9 @@ typedef struct gi_material {
     int double_sided;
 } gi_material;
 
-enum { GI_LIGHT_POINT = 0, GI_LIGHT_SPOT = 1, GI_LIGHT_DIRECTIONAL = 2, GI_LIGHT_AREA = 3 };
+enum { GI_LIGHT_POINT = 0, GI_LIGHT_SPOT = 1, GI_LIGHT_DIRECTIONAL = 2, GI_LIGHT_AREA = 3,
+       /* emissive surfaces (gi_emit.h): made by gi-relight, never read from a file */
+       GI_LIGHT_MESH = 4 };
 
 typedef struct gi_light {
     char name[GI_NAME_MAX];
@@ -67,6 +69,8 @@ typedef struct gi_light {
     float outer_cone;    /* spot, radians, half angle where light ends */
     float range;         /* glTF range in metres, 0 = infinite (ignored by gi's physics) */
     float u[3], v[3];    /* area: half edge vectors; emits on the side of cross(u, v) */
+    const struct gi_emit *mesh; /* GI_LIGHT_MESH: the emitters (borrowed) */
+    uint64_t mesh_version;      /* GI_LIGHT_MESH: changes whenever the emitters do */
 } gi_light;
 
 typedef struct gi_camera {

@@ -725,7 +725,7 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     gi_vec3 p = gi_v3p(sf->p), ng = gi_v3p(sf->ng), nsn = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
     gi_bsdf bs;
     gi_bsdf_init(&bs, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
-    int nsmp = lt->type == GI_LIGHT_AREA ? ka * ka : 1;
+    int nsmp = gi_light_has_area(lt) ? ka * ka : 1;
     gi_rng rng;
     gi_rng_seed(&rng, seed, id, l);
     for (int j = 0; j < nsmp; j++) {
@@ -745,7 +745,7 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         int q = b->n++;
         b->o[q] = gi_rt_offset(p, ng, ls.wi);
         b->d[q] = ls.wi;
-        b->t[q] = isfinite(ls.dist) ? ls.dist * (1.0f - 1e-4f) : INFINITY;
+        b->t[q] = gi_rt_shadow_tmax(p, b->o[q], ls.dist);
         b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
         b->idx[q] = slot;
         queued++;
@@ -761,7 +761,7 @@ static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *i
                           size_t l, const gi_material *mats, int ka, uint64_t seed, gi_vec3 *acc, gi_vec3 *out,
                           uint8_t *vis, uint16_t *cnt)
 {
-    int area = lt->type == GI_LIGHT_AREA;
+    int area = gi_light_has_area(lt);
     b->acc = acc;
     b->nlit = area ? cnt : NULL;
     for (size_t e = 0; e < n; e++) {
@@ -1009,7 +1009,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     int ka = (int)ceilf(sqrtf((float)(o->area_samples > 0 ? o->area_samples : 1)));
     int has_area = 0;
     for (size_t l = 0; l < num_lights; l++)
-        has_area |= lights[l].enabled && lights[l].type == GI_LIGHT_AREA;
+        has_area |= lights[l].enabled && lights[l].type == GI_LIGHT_AREA; /* drawn: mesh lights are geometry */
     const int S = ss * ss;
     const int NE = sh->ne;
     /* materials changed since the cached direct light was computed: the
@@ -1106,7 +1106,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             m = NULL;
         }
         if (!(d->view_id == sh->view_id && !any_changed)) {
-            int use_vis = S == 1 && NE > 0 && lt->type != GI_LIGHT_AREA;
+            int use_vis = S == 1 && NE > 0 && !gi_light_has_area(lt);
             if (light_pass(sh, cam, w, h, lt, l, mats, o, ka, m, d->rgb, use_vis ? d->vis : NULL, threads)) {
                 d->view_id = 0;
                 fail = 1;

@@ -11,6 +11,7 @@
 
 #include "gi_container.h"
 #include "gi_exit.h"
+#include "gi_emit.h"
 #include "gi_gbuffer.h"
 #include "gi_gip.h"
 #include "gi_hvds.h"
@@ -161,6 +162,10 @@ int main(int argc, char **argv)
     gi_material *applied_mats = NULL;
     gi_light *applied_lights = NULL;
     size_t applied_nl = 0;
+    gi_emit *emit = NULL;          /* emissive triangles of the applied materials */
+    float *emit_le = NULL;         /* 3 per material: the emissions emit was built from */
+    uint64_t emit_version = 0;
+    gi_light *flights = NULL;      /* the frame's lights, then the mesh light if anything emits */
     size_t first = 0, last = 0;
     int rc = gi_scene_load(scene_path, &s, &st);
     if (!rc)
@@ -200,6 +205,11 @@ int main(int argc, char **argv)
                 size_t on = 0;
                 for (size_t l = 0; l < fr.num_lights; l++)
                     on += fr.lights[l].enabled ? 1 : 0;
+                for (size_t m = 0; m < s->num_materials; m++)
+                    if (gi_maxc(gi_v3p(fr.materials[m].emission)) > 0.0f) {
+                        on++; /* the emissive surfaces, one mesh light */
+                        break;
+                    }
                 if (on > GI_RELIGHT_MAX_LIGHTS)
                     rc = gi_status_set(&st, GI_EXIT_DATA, "%s: frame '%s' has %zu lights on; gi-relight handles "
                                        "at most %d at once", script_path, fr.name, on, GI_RELIGHT_MAX_LIGHTS);
@@ -276,22 +286,52 @@ int main(int argc, char **argv)
             break;
         memcpy(applied_mats, fr.materials, s->num_materials * sizeof *applied_mats);
         double tmat = any_mat ? gi_relight_times_last(rl)->materials : 0.0;
-        int lchg = !applied_lights || !lights_equal(applied_lights, applied_nl, fr.lights, fr.num_lights);
+        /* emissive surfaces light the scene as one mesh light, rebuilt when an emission changes */
+        int echg = !emit_le;
+        if (!emit_le && !(emit_le = calloc(3 * s->num_materials + 3, sizeof *emit_le))) {
+            rc = gi_status_set(&st, GI_EXIT_SYSTEM, "out of memory");
+            break;
+        }
+        for (size_t m = 0; m < s->num_materials; m++)
+            if (memcmp(emit_le + 3 * m, fr.materials[m].emission, 3 * sizeof *emit_le)) {
+                memcpy(emit_le + 3 * m, fr.materials[m].emission, 3 * sizeof *emit_le);
+                echg = 1;
+            }
+        if (echg) {
+            gi_emit_free(emit);
+            emit = NULL;
+            if ((rc = gi_emit_build(s, applied_mats, &emit, &st)))
+                break;
+            emit_version++;
+            if (emit)
+                gi_verbose("%zu emissive triangles light the scene (%.1f lm)", emit->n, emit->power);
+        }
+        free(flights);
+        size_t nfl = fr.num_lights + (emit ? 1 : 0);
+        if (!(flights = malloc((nfl + 1) * sizeof *flights))) {
+            rc = gi_status_set(&st, GI_EXIT_SYSTEM, "out of memory");
+            break;
+        }
+        if (fr.num_lights)
+            memcpy(flights, fr.lights, fr.num_lights * sizeof *flights);
+        if (emit)
+            gi_emit_light(emit, emit_version, &flights[fr.num_lights]);
+        int lchg = !applied_lights || !lights_equal(applied_lights, applied_nl, flights, nfl);
         if (lchg)
             changed |= GI_CHANGED_LIGHTS;
         gi_relight_times rt_t = {0};
         if (lchg || any_mat) {
-            if ((rc = gi_relight_set_lights(rl, fr.lights, fr.num_lights, 4, &st)))
+            if ((rc = gi_relight_set_lights(rl, flights, nfl, 4, &st)))
                 break;
             rt_t = *gi_relight_times_last(rl);
             free(applied_lights);
-            applied_lights = malloc((fr.num_lights + 1) * sizeof *applied_lights);
+            applied_lights = malloc((nfl + 1) * sizeof *applied_lights);
             if (!applied_lights) {
                 rc = gi_status_set(&st, GI_EXIT_SYSTEM, "out of memory");
                 break;
             }
-            memcpy(applied_lights, fr.lights, fr.num_lights * sizeof *applied_lights);
-            applied_nl = fr.num_lights;
+            memcpy(applied_lights, flights, nfl * sizeof *applied_lights);
+            applied_nl = nfl;
         }
         if (!have_last || memcmp(&last_cam, &fr.camera, sizeof last_cam))
             changed |= GI_CHANGED_CAMERA;
@@ -304,7 +344,7 @@ int main(int argc, char **argv)
             break;
         }
         gi_shade_times stt;
-        if ((rc = gi_shade_frame(sh, gb, &fr.camera, fr.width, fr.height, fr.lights, fr.num_lights, fr.materials,
+        if ((rc = gi_shade_frame(sh, gb, &fr.camera, fr.width, fr.height, flights, nfl, fr.materials,
                                  gi_relight_gpoint_irradiance(rl), &so, rgb, &stt, &st)))
             break;
         double f1 = gi_now();
@@ -345,6 +385,9 @@ int main(int argc, char **argv)
     free(rgb);
     free(applied_mats);
     free(applied_lights);
+    free(flights);
+    free(emit_le);
+    gi_emit_free(emit);
     gi_shade_free(sh);
     gi_gbuffer_free(gb);
     gi_relight_free(rl);

@@ -14,7 +14,9 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "gi_emit.h"
 #include "gi_gltf_write.h"
+#include "gi_light.h"
 #include "gi_log.h"
 #include "gi_math.h"
 #include "gi_pt.h"
@@ -239,6 +241,81 @@ static void test_area_configuration_factor(void **state)
     world_free(&w);
 }
 
+/* ---- 2b. emissive glTF surfaces: the same rectangle as geometry ---------- */
+/* The rectangle of test_area_configuration_factor as two emissive triangles
+ * (single-sided, facing down). The mesh light that gi-relight builds from
+ * them (gi_emit_light + gi_light_sample_at, stratified, no shadow rays needed
+ * here) and the path tracer's own emitter sampling must both give pi L F;
+ * the sampled pdf must equal gi_emit_pdf; the back side must get nothing. */
+static void test_emissive_configuration_factor(void **state)
+{
+    (void)state;
+    world w = {0};
+    const float L = 1000.0f;
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float black[3] = {0, 0, 0}, le[3] = {L, L, L};
+    int m = gi_gltf_add_material(b, "floor", black, 1.0f, 1.0f, NULL, 0);
+    int me = gi_gltf_add_material(b, "panel", black, 1.0f, 1.0f, le, 0);
+    big_plane(b, 100.0f, m);
+    float q0[3] = {-0.5f, 1, -0.25f}, q1[3] = {0.5f, 1, -0.25f}, q2[3] = {0.5f, 1, 0.25f}, q3[3] = {-0.5f, 1, 0.25f};
+    gi_gltf_add_quad(b, q0, q1, q2, q3, me); /* counter-clockwise from below: faces -y */
+    world_make(&w, b, "plane_emissive", 2);
+    gi_status st = {0};
+    gi_emit *e = NULL;
+    assert_int_equal(gi_emit_build(w.s, w.s->materials, &e, &st), 0);
+    assert_non_null(e);
+    assert_int_equal(e->n, 2);
+    assert_true(fabs(e->power - GI_PI * L * 0.5) < 1e-3 * GI_PI * L * 0.5);
+    gi_light ml;
+    gi_emit_light(e, 1, &ml);
+    float pts[][6] = {
+        {0, 0, 0, 0, 1, 0}, {0.5f, 0, 0, 0, 1, 0}, {2, 0, 0, 0, 1, 0}, {0.45f, 0.9f, 0, 0, 1, 0},
+        {0, 0.5f, 0, 0.6f, 0.8f, 0},
+    };
+    size_t n = sizeof pts / sizeof pts[0];
+    gi_vec3 poly[4] = {gi_v3p(q0), gi_v3p(q1), gi_v3p(q2), gi_v3p(q3)};
+    double lux[8], err[8];
+    assert_int_equal(gi_pt_sensors(w.pt, &pts[0][0], n, 65536, lux, err, &st), 0);
+    for (size_t i = 0; i < n; i++) {
+        gi_vec3 x = gi_v3p(pts[i]), nn = gi_v3p(pts[i] + 3);
+        double expect = L * polygon_projected_solid_angle(poly, 4, x, nn);
+        /* the mesh light, 256 x 256 stratified samples */
+        const int k = 256;
+        double sum = 0.0;
+        for (int j = 0; j < k * k; j++) {
+            float u1 = ((float)(j % k) + 0.5f) / (float)k, u2 = ((float)(j / k) + 0.5f) / (float)k;
+            gi_light_sample ls;
+            if (!gi_light_sample_at(&ml, x, u1, u2, &ls))
+                continue;
+            sum += (double)ls.value.y * fmax(0.0, (double)gi_dot(nn, ls.wi));
+        }
+        double mesh = sum / (double)(k * k);
+        print_message("emissive point %zu: mesh light %.5g, path tracer %.5g +- %.2g, exact %.5g lux\n", i, mesh,
+                      lux[i], err[i], expect);
+        if (fabs(mesh - expect) > 0.003 * expect)
+            fail_msg("emissive point %zu: mesh light E = %.6g, exact pi L F = %.6g", i, mesh, expect);
+        double tol = fmax(4.0 * err[i], 0.003 * expect);
+        assert_true(tol < 0.02 * expect);
+        if (fabs(lux[i] - expect) > tol)
+            fail_msg("emissive point %zu: path tracer E = %.6g +- %.3g, exact %.6g", i, lux[i], err[i], expect);
+        /* the pdf of each sample is the one MIS asks for */
+        for (size_t t = 0; t < e->n; t++) {
+            gi_light_sample ls;
+            gi_vec3 q, ng;
+            if (!gi_emit_sample(e, t, x, 0.3f, 0.6f, &ls, &q, &ng))
+                continue;
+            float p2 = gi_emit_pdf(e, e->tri[t], ls.wi, ls.dist);
+            assert_true(fabsf(p2 - ls.pdf) <= 1e-4f * ls.pdf);
+        }
+    }
+    /* above the panel, looking down at its back: single-sided, nothing */
+    gi_light_sample ls;
+    assert_int_equal(gi_light_sample_at(&ml, gi_v3(0, 2, 0), 0.5f, 0.5f, &ls), 0);
+    assert_true(gi_emit_pdf(e, w.s->num_triangles + 5, gi_v3(0, 1, 0), 1.0f) == 0.0f);
+    gi_emit_free(e);
+    world_free(&w);
+}
+
 /* ---- 3. flux conservation in a black box -------------------------------- */
 /* Midpoint-rule sum of E * dA over the six inner faces of the cube [-1,1]^3. */
 static double box_flux(world *w, int k, int spp, double *stderr_out)
@@ -446,6 +523,7 @@ int main(void)
         cmocka_unit_test(test_point_inverse_square),
         cmocka_unit_test(test_spot_directional),
         cmocka_unit_test(test_area_configuration_factor),
+        cmocka_unit_test(test_emissive_configuration_factor),
         cmocka_unit_test(test_flux_conservation),
         cmocka_unit_test(test_room_rho50),
         cmocka_unit_test(test_room_rho90),
