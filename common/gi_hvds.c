@@ -21,6 +21,7 @@ void gi_hvds_opts_default(gi_hvds_opts *o)
     o->r_max = 0.0f;
     o->dir_bins = 64;
     o->cell_photons = 16.0f;
+    o->key_photons = 8;
     o->occlusion_check = 1;
     o->leak_check = 1;
     o->seed = 1;
@@ -782,6 +783,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     double *area = NULL;
     uint32_t **ptmp = NULL;
     uint32_t *pcnt = NULL;
+    uint64_t *ksub = NULL;
 
     /* 1. gathering points */
     double total = 0.0;
@@ -1119,14 +1121,33 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     for (size_t i = 0; i < nrec; i++)
         h->key_scale[i] = area[i] > 0.0 ? (float)(1.0 / (GI_PI * area[i])) : 0.0f;
 
-    /* 8. gathering rays -> keys: footprint level, then down while occluded */
+    /* photons under every key (its own and its descendants'), for --key-photons */
+    ksub = calloc(nrec + 1, sizeof *ksub);
+    if (!ksub)
+        goto oom;
+    for (uint64_t p = 0; p < P; p++)
+        if (h->photon_key[p] != GI_HVDS_NO_KEY)
+            ksub[h->photon_key[p]]++;
+    for (size_t i = 0; i < nrec; i++)
+        if (h->key_parent[i] != GI_HVDS_NO_KEY)
+            ksub[h->key_parent[i]] += ksub[i];
+
+    /* 8. gathering rays -> keys: footprint level, then down while occluded,
+     * then up while the key holds fewer than key_photons photons. One photon
+     * in a sliver of a cell otherwise gives a radiance spike that every ray
+     * into it repeats (Sponza: a gathering point in a crevice at 8983 lux
+     * against 48 measured). The coarser key is taken even where the occlusion
+     * check had descended: measured on Sponza, keeping the check there left
+     * those spikes and gained nothing (sun-moved nrmse 0.149 either way,
+     * 0.144 without it). */
     pcnt = calloc(ng + 1, sizeof *pcnt);
     ptmp = calloc(ng + 1, sizeof *ptmp);
     if (!pcnt || !ptmp)
         goto oom;
-    uint64_t descended = 0;
+    uint64_t descended = 0, lifted = 0;
+    const uint64_t kmin = (uint64_t)(o.key_photons > 0 ? o.key_photons : 0);
     int oom_flag = 0;
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads) reduction(+ : descended) reduction(| : oom_flag)
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads) reduction(+ : descended, lifted) reduction(| : oom_flag)
     for (size_t i = 0; i < ng; i++) {
         gi_rt_thread_init();
         uint32_t *keys = malloc((size_t)N * sizeof *keys);
@@ -1161,6 +1182,13 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
                 moved = 1;
             }
             descended += (uint64_t)moved;
+            while (key != GI_HVDS_NO_KEY && ksub[key] < kmin) {
+                uint32_t pk = h->key_parent[key];
+                if (pk == GI_HVDS_NO_KEY || !(h->key_scale[pk] > 0.0f))
+                    break;
+                key = pk;
+                lifted++;
+            }
             if (key != GI_HVDS_NO_KEY)
                 keys[nk++] = key;
         }
@@ -1189,6 +1217,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     if (oom_flag)
         goto oom;
     h->rays_descended = descended;
+    h->rays_lifted = lifted;
     {
         uint64_t np = 0;
         for (size_t i = 0; i < ng; i++)
@@ -1235,6 +1264,7 @@ done:
             free(ptmp[i]);
     free(ptmp);
     free(pcnt);
+    free(ksub);
     free(area);
     free(reps);
     free(recs);
@@ -1298,6 +1328,7 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
         (rc = gi_meta_addf(&meta, "option.r-max", st, "%.9g", o->r_max)) ||
         (rc = gi_meta_addf(&meta, "option.dir-bins", st, "%d", o->dir_bins)) ||
         (rc = gi_meta_addf(&meta, "option.cell-photons", st, "%.9g", o->cell_photons)) ||
+        (rc = gi_meta_addf(&meta, "option.key-photons", st, "%d", o->key_photons)) ||
         (rc = gi_meta_addf(&meta, "option.occlusion-check", st, "%d", o->occlusion_check)) ||
         (rc = gi_meta_addf(&meta, "option.leak-check", st, "%d", o->leak_check)) ||
         (rc = gi_meta_addf(&meta, "option.seed", st, "%llu", (unsigned long long)o->seed)) ||
@@ -1397,6 +1428,9 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
     const char *v;
     if ((v = gi_reader_meta(r, "option.gather-rays")))
         h->opts.gather_rays = atoi(v);
+    h->opts.key_photons = 0; /* files from before the option */
+    if ((v = gi_reader_meta(r, "option.key-photons")))
+        h->opts.key_photons = atoi(v);
     if ((v = gi_reader_meta(r, "option.r-min")))
         h->opts.r_min = strtof(v, NULL);
     if ((v = gi_reader_meta(r, "option.r-max")))

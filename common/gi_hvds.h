@@ -37,6 +37,8 @@ typedef struct gi_hvds_opts {
     float r_min, r_max;      /* R- and R+ in metres (0: from the scene size) */
     int dir_bins;            /* direction bins on the sphere for glossy keys */
     float cell_photons;      /* the smallest cell holds about this many photons on average */
+    int key_photons;         /* a gathering ray reads the nearest ancestor key holding at least
+                                this many photons (0: its own key) */
     int occlusion_check;     /* 1: gathering rays descend past occluded coarse content (default) */
     int leak_check;          /* 1: split cells whose same-bin photons cannot see each other (default) */
     uint64_t seed;
@@ -83,6 +85,7 @@ typedef struct gi_hvds {
     uint16_t *pair_count;
     uint64_t num_rays;       /* gathering rays traced (= num_gpoints * gather_rays) */
     uint64_t rays_descended; /* rays moved to finer cells by the occlusion check */
+    uint64_t rays_lifted;    /* rays moved to coarser keys by key_photons (build only, not stored) */
 } gi_hvds;
 
 int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_t gip_fingerprint,
