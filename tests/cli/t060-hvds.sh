@@ -42,6 +42,7 @@ expect_exit 2 "--gather-rays 0" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$X" --gathe
 expect_stderr "--gather-rays: 0 is out of range" "the range error names the option"
 expect_exit 2 "--gather-rays not a number" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$X" --gather-rays 16x
 expect_exit 2 "--r-max negative" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$X" --r-max -1
+expect_exit 2 "--key-photons negative" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$X" --key-photons -1
 expect_exit 2 "missing -o" "$GH" "$TMP/c.gltf" "$TMP/c.gip"
 expect_stderr "missing -o" "missing -o is explained"
 expect_exit 2 "one positional argument" "$GH" "$TMP/c.gltf" -o "$X"
@@ -78,6 +79,20 @@ check "another seed gives other bytes" bash -c "! cmp -s '$TMP/c.gih' '$TMP/cs.g
 expect_success "a larger --r-max" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$TMP/cr.gih" --gather-rays 16 --r-max 0.1
 n_big=$(gpoints)
 check "a larger --r-max selects fewer points ($n_big < $n_rej)" test "${n_big:-0}" -gt 0 -a "${n_big:-0}" -lt "$n_rej"
+
+# --key-photons: a count no key reaches sends every ray to the root's keys (one per normal bin)
+pairs() { sed -n 's/.* -> \([0-9]*\) (key, count) pairs.*/\1/p' "$TMP/stderr"; }
+lifted() { sed -n 's/.*, \([0-9]*\) to coarser keys.*/\1/p' "$TMP/stderr"; }
+expect_success "--key-photons 0" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$TMP/k0.gih" "${SMALL[@]}" --key-photons 0
+p0=$(pairs) l0=$(lifted)
+check "--key-photons 0 moves no ray ($l0)" test "$l0" = 0
+check "META records --key-photons 0" grep -aq "option.key-photons=0" "$TMP/k0.gih"
+check "the default records --key-photons 8" grep -aq "option.key-photons=8" "$TMP/c.gih"
+expect_success "--key-photons 1000000" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$TMP/kbig.gih" "${SMALL[@]}" --key-photons 1000000
+pb=$(pairs) lb=$(lifted)
+check "--key-photons 1000000 moves rays ($lb) and merges pairs ($pb < $p0)" \
+  test "${lb:-0}" -gt 0 -a "${pb:-0}" -gt 0 -a "${pb:-0}" -lt "${p0:-0}"
+check "... into at most one key per normal bin and point ($pb <= 26 x $n_rej)" test "${pb:-0}" -le $((26 * n_rej))
 
 expect_success "--gather kmeans" "$GH" "$TMP/c.gltf" "$TMP/c.gip" -o "$TMP/ck.gih" "${SMALL[@]}" --gather kmeans
 expect_stderr "gathering points \(k-means\)" "the summary names k-means"
