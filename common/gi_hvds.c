@@ -726,10 +726,10 @@ static int keyrec_cmp(const void *a, const void *b)
     return (x->bin > y->bin) - (x->bin < y->bin);
 }
 
-static int u32_cmp(const void *a, const void *b)
+static int u64_cmp(const void *a, const void *b)
 {
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
 }
 
 #define NREP 4
@@ -1150,7 +1150,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
 #pragma omp parallel for schedule(dynamic, 16) num_threads(threads) reduction(+ : descended, lifted) reduction(| : oom_flag)
     for (size_t i = 0; i < ng; i++) {
         gi_rt_thread_init();
-        uint32_t *keys = malloc((size_t)N * sizeof *keys);
+        uint64_t *keys = malloc((size_t)N * sizeof *keys); /* key << 32 | ray */
         if (!keys) {
             oom_flag = 1;
             continue;
@@ -1190,26 +1190,42 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
                 lifted++;
             }
             if (key != GI_HVDS_NO_KEY)
-                keys[nk++] = key;
+                keys[nk++] = (uint64_t)key << 32 | (uint32_t)r;
         }
-        qsort(keys, nk, sizeof *keys, u32_cmp);
-        /* compact into interleaved (key, count) pairs */
-        uint32_t *pr = malloc((2 * (size_t)nk + 2) * sizeof *pr);
-        if (!pr) {
+        qsort(keys, nk, sizeof *keys, u64_cmp);
+        /* compact into (key, count, mean direction x, y, z) records of 5 words */
+        uint32_t *pr = malloc((5 * (size_t)nk + 5) * sizeof *pr);
+        float *sum = malloc((3 * (size_t)nk + 3) * sizeof *sum);
+        if (!pr || !sum) {
             free(keys);
+            free(pr);
+            free(sum);
             oom_flag = 1;
             continue;
         }
+        const float *gpos = h->gpoints[i].pos;
         uint32_t w = 0;
         for (uint32_t j = 0; j < nk; j++) {
-            if (w > 0 && pr[2 * (w - 1)] == keys[j]) {
-                pr[2 * (w - 1) + 1]++;
-            } else {
-                pr[2 * w] = keys[j];
-                pr[2 * w + 1] = 1;
+            uint32_t key = (uint32_t)(keys[j] >> 32);
+            const ghit *gh = &hits[i * (size_t)N + (uint32_t)keys[j]];
+            gi_vec3 d = gi_norm(gi_sub(gi_v3p(gh->pos), gi_v3p(gpos)));
+            if (!(w > 0 && pr[5 * (w - 1)] == key)) {
+                pr[5 * w] = key;
+                pr[5 * w + 1] = 0;
+                sum[3 * w] = sum[3 * w + 1] = sum[3 * w + 2] = 0.0f;
                 w++;
             }
+            pr[5 * (w - 1) + 1]++;
+            sum[3 * (w - 1)] += d.x;
+            sum[3 * (w - 1) + 1] += d.y;
+            sum[3 * (w - 1) + 2] += d.z;
         }
+        for (uint32_t j = 0; j < w; j++)
+            for (int a = 0; a < 3; a++) {
+                float m = sum[3 * j + a] / (float)pr[5 * j + 1];
+                memcpy(&pr[5 * j + 2 + a], &m, sizeof m);
+            }
+        free(sum);
         free(keys);
         ptmp[i] = pr;
         pcnt[i] = w;
@@ -1229,15 +1245,21 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         h->num_pairs = (uint32_t)np;
         h->pair_key = malloc((np + 1) * sizeof *h->pair_key);
         h->pair_count = malloc((np + 1) * sizeof *h->pair_count);
-        if (!h->pair_key || !h->pair_count)
+        h->pair_dir = malloc(3 * (np + 1));
+        if (!h->pair_key || !h->pair_count || !h->pair_dir)
             goto oom;
         uint32_t at = 0;
         for (size_t i = 0; i < ng; i++) {
             h->gpoints[i].first_pair = at;
             h->gpoints[i].num_pairs = pcnt[i];
             for (uint32_t j = 0; j < pcnt[i]; j++) {
-                h->pair_key[at] = ptmp[i][2 * j];
-                h->pair_count[at] = (uint16_t)ptmp[i][2 * j + 1];
+                h->pair_key[at] = ptmp[i][5 * j];
+                h->pair_count[at] = (uint16_t)ptmp[i][5 * j + 1];
+                for (int a = 0; a < 3; a++) {
+                    float m;
+                    memcpy(&m, &ptmp[i][5 * j + 2 + a], sizeof m);
+                    h->pair_dir[3 * (size_t)at + a] = (int8_t)lrintf(127.0f * gi_clampf(m, -1.0f, 1.0f));
+                }
                 at++;
             }
         }
@@ -1297,6 +1319,7 @@ void gi_hvds_free(gi_hvds *h)
     free(h->gpoints);
     free(h->pair_key);
     free(h->pair_count);
+    free(h->pair_dir);
     free(h);
 }
 
@@ -1319,6 +1342,8 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
     gi_buf_init(&pkey);
     gi_buf_init(&gpts);
     gi_buf_init(&gray);
+    gi_buf gdir;
+    gi_buf_init(&gdir);
     int rc = 0;
     const gi_hvds_opts *o = &h->opts;
     if ((rc = gi_meta_add(&meta, "tool", "gi-hvds", st)) || (rc = gi_meta_add(&meta, "version", GI_VERSION, st)) ||
@@ -1377,6 +1402,10 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
         gi_buf_put_u32(&gray, h->pair_key[i]);
     for (uint32_t i = 0; i < h->num_pairs; i++)
         gi_buf_put_u16(&gray, h->pair_count[i]);
+    if (h->pair_dir) {
+        gi_buf_put_u32(&gdir, h->num_pairs);
+        gi_buf_put_bytes(&gdir, h->pair_dir, 3 * (size_t)h->num_pairs);
+    }
 
     gi_writer *w = gi_writer_new(GI_HVDS_MAGIC, GI_HVDS_MAJOR, GI_HVDS_MINOR);
     if (!w) {
@@ -1385,7 +1414,8 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
     }
     if (!(rc = gi_writer_add_buf(w, "META", 0, &meta, st)) && !(rc = gi_writer_add_buf(w, "OCTR", 0, &octr, st)) &&
         !(rc = gi_writer_add_buf(w, "KEYS", 0, &keys, st)) && !(rc = gi_writer_add_buf(w, "PKEY", 0, &pkey, st)) &&
-        !(rc = gi_writer_add_buf(w, "GPTS", 0, &gpts, st)) && !(rc = gi_writer_add_buf(w, "GRAY", 0, &gray, st)))
+        !(rc = gi_writer_add_buf(w, "GPTS", 0, &gpts, st)) && !(rc = gi_writer_add_buf(w, "GRAY", 0, &gray, st)) &&
+        !(rc = h->pair_dir ? gi_writer_add_buf(w, "GDIR", 0, &gdir, st) : 0))
         rc = gi_writer_write(w, path, st);
     gi_writer_free(w);
 out:
@@ -1395,6 +1425,7 @@ out:
     gi_buf_release(&pkey);
     gi_buf_release(&gpts);
     gi_buf_release(&gray);
+    gi_buf_release(&gdir);
     return rc;
 }
 
@@ -1535,6 +1566,23 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         rc = gi_cursor_u16(&cg, &h->pair_count[i], st);
     if (rc || (rc = gi_cursor_end(&cg, st)))
         goto fail;
+    /* GDIR (optional, 1.1): mean direction of each pair's rays */
+    if (gi_reader_section(r, "GDIR", NULL)) {
+        gi_cursor cd;
+        const void *bytes = NULL;
+        if ((rc = gi_reader_cursor(r, "GDIR", &cd, st)) || (rc = gi_cursor_u32(&cd, &u32, st)))
+            goto fail;
+        if (u32 != h->num_pairs) {
+            rc = gi_cursor_fail(&cd, st, "%u pair directions for %u gathering pairs", u32, h->num_pairs);
+            goto fail;
+        }
+        if ((rc = gi_cursor_bytes(&cd, &bytes, 3 * (size_t)u32, st)) || (rc = gi_cursor_end(&cd, st)))
+            goto fail;
+        h->pair_dir = malloc(3 * (size_t)u32 + 3);
+        if (!h->pair_dir)
+            goto oom;
+        memcpy(h->pair_dir, bytes, 3 * (size_t)u32);
+    }
     /* GPTS */
     if ((rc = gi_reader_cursor(r, "GPTS", &c, st)) || (rc = gi_cursor_u32(&c, &u32, st)) ||
         (rc = gi_cursor_check_count(&c, u32, 44, "gathering points", st)))

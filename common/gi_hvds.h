@@ -24,7 +24,7 @@ extern "C" {
 
 #define GI_HVDS_MAGIC "GIHVDS\0\0"
 #define GI_HVDS_MAJOR 1
-#define GI_HVDS_MINOR 0
+#define GI_HVDS_MINOR 1
 #define GI_HVDS_NORMAL_BINS 26
 #define GI_HVDS_NO_KEY 0xffffffffu
 #define GI_HVDS_MAX_DEPTH 20
@@ -83,6 +83,7 @@ typedef struct gi_hvds {
     uint32_t num_pairs;
     uint32_t *pair_key;
     uint16_t *pair_count;
+    int8_t *pair_dir;        /* 3 per pair: mean unit direction of its rays x 127 (NULL: 1.0 file) */
     uint64_t num_rays;       /* gathering rays traced (= num_gpoints * gather_rays) */
     uint64_t rays_descended; /* rays moved to finer cells by the occlusion check */
     uint64_t rays_lifted;    /* rays moved to coarser keys by key_photons (build only, not stored) */

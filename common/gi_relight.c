@@ -46,6 +46,8 @@ struct gi_relight {
     uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
     uint32_t *key_photon;
     float *gp_e;          /* 3 per gathering point */
+    float *gp_t;          /* 9 per gathering point: tangential gradient of incident radiance (NULL: no GDIR) */
+    int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
     gi_relight_times times;
 };
 
@@ -61,6 +63,8 @@ static int alloc_all(gi_relight *r)
     r->key_start = calloc(K + 2, sizeof *r->key_start);
     r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
     r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
+    if (r->h->pair_dir && !(r->gp_t = calloc(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
+        return -1;
     return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->key_flux && r->key_start &&
                    r->key_photon && r->gp_e
                ? 0
@@ -137,6 +141,7 @@ void gi_relight_free(gi_relight *r)
     free(r->key_start);
     free(r->key_photon);
     free(r->gp_e);
+    free(r->gp_t);
     free(r);
 }
 
@@ -155,6 +160,12 @@ int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsig
 {
     double t0 = gi_now();
     r->mats = mats;
+    r->any_glossy = 0;
+    for (size_t m = 0; m < r->s->num_materials; m++) {
+        gi_bsdf b;
+        gi_bsdf_init(&b, &mats[m], gi_v3(1.0f, 1.0f, 1.0f));
+        r->any_glossy |= gi_maxc(b.ks) > 0.0f;
+    }
     const gi_gip *g = r->gip;
     const gi_scene *s = r->s;
     if (!changed && r->s->num_materials > 0 &&
@@ -404,6 +415,29 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         r->gp_e[3 * i] = (float)(a[0] * w);
         r->gp_e[3 * i + 1] = (float)(a[1] * w);
         r->gp_e[3 * i + 2] = (float)(a[2] * w);
+        if (r->gp_t && r->any_glossy) {
+            /* the cosine-weighted first moment M1 = (1/N) sum L w of the
+             * incident radiance; for L(w) = a + b.w its part tangential to the
+             * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n) */
+            double m[3][3] = {{0}};
+            for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
+                uint32_t k = h->pair_key[j];
+                double sc = (double)h->pair_count[j] * h->key_scale[k] / 127.0;
+                const int8_t *d = h->pair_dir + 3 * (size_t)j;
+                for (int c = 0; c < 3; c++) {
+                    double L = sc * r->key_flux[3 * (size_t)k + c];
+                    m[c][0] += L * d[0];
+                    m[c][1] += L * d[1];
+                    m[c][2] += L * d[2];
+                }
+            }
+            double inv = 4.0 * w / GI_PI;
+            for (int c = 0; c < 3; c++) {
+                double dn = m[c][0] * gp->nrm[0] + m[c][1] * gp->nrm[1] + m[c][2] * gp->nrm[2];
+                for (int q = 0; q < 3; q++)
+                    r->gp_t[9 * (size_t)i + 3 * c + q] = (float)((m[c][q] - dn * gp->nrm[q]) * inv);
+            }
+        }
     }
     double t4 = gi_now();
     r->times.entry = t1 - t0;
@@ -414,5 +448,6 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
 }
 
 const float *gi_relight_gpoint_irradiance(const gi_relight *r) { return r->gp_e; }
+const float *gi_relight_gpoint_gradient(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }
 const float *gi_relight_key_flux(const gi_relight *r) { return r->key_flux; }
 const gi_relight_times *gi_relight_times_last(const gi_relight *r) { return &r->times; }

@@ -49,6 +49,13 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                           gi_status *st);
 /* Indirect irradiance (lux, RGB) at each gathering point: 3 floats per point. */
 const float *gi_relight_gpoint_irradiance(const gi_relight *r);
+/* Per gathering point, 9 floats: for each of R, G, B the tangential part b_t
+ * (cd/m^2 per unit direction) of a linear fit L(w) = E / pi + b_t . w of the
+ * incident radiance, from the mean ray direction of each (key, count) pair.
+ * gi_shade uses it for low-frequency glossy reflection. NULL when the .gih has
+ * no GDIR section (format 1.0) or no material of the last
+ * gi_relight_set_materials has a glossy lobe (then it is not computed). */
+const float *gi_relight_gpoint_gradient(const gi_relight *r);
 /* Flux (RGB) accumulated in each key (after set_lights). */
 const float *gi_relight_key_flux(const gi_relight *r);
 const gi_relight_times *gi_relight_times_last(const gi_relight *r);

@@ -34,12 +34,20 @@ typedef struct ssurf {
     float w[GI_SHADE_K]; /* normalised weights */
 } ssurf;
 
+/* Glossy lobe tables over (cos theta_o, Phong exponent): A, the lobe's
+ * directional albedo int (n+2)/(2 pi) cos^n a cos theta_i dw over the upper
+ * hemisphere, and B, the same integral of w . t with t the unit tangential
+ * direction of the mirror direction, for radiance linear in direction. */
+#define LOBE_NC 33 /* cos theta_o = i / 32 */
+#define LOBE_NN 29 /* log2(n + 1) = j / 2 */
+
 struct gi_shade {
     const gi_scene *s;
     const gi_rt *rt;
     const gi_hvds *h;
     gi_texfilter *tf;   /* mip pyramids for footprint-filtered textures */
     float reach;        /* weights reach this many effective radii */
+    float lobe_a[LOBE_NN][LOBE_NC], lobe_b[LOBE_NN][LOBE_NC];
     /* influence grid: each gathering point is listed in every cell its
      * influence sphere (reach * radius) touches */
     float gmin[3], cell;
@@ -97,6 +105,51 @@ static inline size_t cell_index(const gi_shade *sh, int x, int y, int z)
     return ((size_t)z * (size_t)sh->gdim[1] + (size_t)y) * (size_t)sh->gdim[0] + (size_t)x;
 }
 
+/* Stratified lobe sampling (24 x 24 per entry): cos a = u^(1 / (n + 1)) about
+ * the mirror direction; weight f cos / pdf = (n + 2) / (n + 1) max(cos_i, 0). */
+static void lobe_tables(gi_shade *sh)
+{
+    const int K = 24;
+    for (int j = 0; j < LOBE_NN; j++) {
+        double n = exp2(0.5 * j) - 1.0;
+        for (int i = 0; i < LOBE_NC; i++) {
+            double co = (double)i / (LOBE_NC - 1), so = sqrt(fmax(0.0, 1.0 - co * co));
+            /* wo = (so, 0, co), mirror r = (-so, 0, co); tangent t = (-1, 0, 0) */
+            double rx = -so, rz = co;
+            /* basis about r: e1 = (rz, 0, -rx)... orthonormal to r in the x-z plane, e2 = y */
+            double e1x = rz, e1z = -rx;
+            double sa = 0.0, sb = 0.0;
+            for (int p = 0; p < K; p++)
+                for (int q = 0; q < K; q++) {
+                    double u1 = (p + 0.5) / K, u2 = (q + 0.5) / K;
+                    double ca = pow(u1, 1.0 / (n + 1.0)), sn = sqrt(fmax(0.0, 1.0 - ca * ca));
+                    double phi = 2.0 * GI_PI * u2;
+                    double wx = ca * rx + sn * cos(phi) * e1x, wz = ca * rz + sn * cos(phi) * e1z;
+                    if (wz <= 0.0)
+                        continue;
+                    double wt = (n + 2.0) / (n + 1.0) * wz;
+                    sa += wt;
+                    sb += wt * -wx;
+                }
+            sh->lobe_a[j][i] = (float)(sa / (K * K));
+            sh->lobe_b[j][i] = (float)(sb / (K * K));
+        }
+    }
+}
+
+static void lobe_lookup(const gi_shade *sh, float n, float co, float *a, float *b)
+{
+    float fj = gi_clampf(2.0f * log2f(n + 1.0f), 0.0f, (float)(LOBE_NN - 1));
+    float fi = gi_clampf(co, 0.0f, 1.0f) * (float)(LOBE_NC - 1);
+    int j0 = (int)fj, i0 = (int)fi;
+    int j1 = j0 + 1 < LOBE_NN ? j0 + 1 : j0, i1 = i0 + 1 < LOBE_NC ? i0 + 1 : i0;
+    float tj = fj - (float)j0, ti = fi - (float)i0;
+    *a = (1 - tj) * ((1 - ti) * sh->lobe_a[j0][i0] + ti * sh->lobe_a[j0][i1]) +
+         tj * ((1 - ti) * sh->lobe_a[j1][i0] + ti * sh->lobe_a[j1][i1]);
+    *b = (1 - tj) * ((1 - ti) * sh->lobe_b[j0][i0] + ti * sh->lobe_b[j0][i1]) +
+         tj * ((1 - ti) * sh->lobe_b[j1][i0] + ti * sh->lobe_b[j1][i1]);
+}
+
 int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade **out, gi_status *st)
 {
     *out = NULL;
@@ -107,6 +160,7 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
     sh->rt = rt;
     sh->h = h;
     sh->reach = 2.0f;
+    lobe_tables(sh);
     int rc = gi_texfilter_new(s, &sh->tf, st);
     if (rc) {
         free(sh);
@@ -801,19 +855,50 @@ static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *i
 /* Indirect light of one sample: interpolated irradiance times the reflectance.
  * Low-frequency approximation: the whole BRDF sees the indirect light as
  * diffuse (its hemispherical albedo, at most 1, over pi). */
-static inline gi_vec3 indirect_sample(const ssurf *sf, const gi_material *mats, const float *gpe)
+/* Indirect light of one pixel sample: the diffuse lobe takes the interpolated
+ * irradiance, kd E / pi; the glossy lobe takes ks (A E / pi + B b_t . t), the
+ * lobe integrated against incident radiance linear in direction
+ * (lobe_tables), b_t from the gathering points' gradients (gpt, NULL: 0). */
+static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const gi_material *mats, const float *gpe,
+                                      const float *gpt)
 {
     const gi_material *m = &mats[sf->material];
-    float e[3] = {0, 0, 0};
+    float e[3] = {0, 0, 0}, tg[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    gi_bsdf b;
+    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+    int glossy = gi_maxc(b.ks) > 0.0f;
     for (int q = 0; q < sf->npairs; q++) {
         const float *g = gpe + 3 * (size_t)sf->gp[q];
         e[0] += sf->w[q] * g[0];
         e[1] += sf->w[q] * g[1];
         e[2] += sf->w[q] * g[2];
+        if (glossy && gpt) {
+            const float *t = gpt + 9 * (size_t)sf->gp[q];
+            for (int c = 0; c < 9; c++)
+                tg[c] += sf->w[q] * t[c];
+        }
     }
-    gi_bsdf b;
-    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
-    return gi_scale(gi_mul(gi_bsdf_max_albedo(&b), gi_v3p(e)), GI_INV_PIf);
+    gi_vec3 E = gi_scale(gi_v3p(e), GI_INV_PIf);
+    gi_vec3 out = gi_mul(b.kd, E);
+    if (glossy) {
+        gi_vec3 n = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
+        float co = gi_dot(n, wo);
+        float A, B;
+        lobe_lookup(sh, b.exponent, co, &A, &B);
+        gi_vec3 r = gi_reflect(wo, n);
+        gi_vec3 rt = gi_sub(r, gi_scale(n, gi_dot(r, n)));
+        float lt = gi_len(rt);
+        gi_vec3 gl = gi_scale(E, A);
+        if (gpt && lt > 1e-6f) {
+            rt = gi_scale(rt, 1.0f / lt);
+            gl.x += B * (tg[0] * rt.x + tg[1] * rt.y + tg[2] * rt.z);
+            gl.y += B * (tg[3] * rt.x + tg[4] * rt.y + tg[5] * rt.z);
+            gl.z += B * (tg[6] * rt.x + tg[7] * rt.y + tg[8] * rt.z);
+        }
+        gl = gi_v3(fmaxf(gl.x, 0.0f), fmaxf(gl.y, 0.0f), fmaxf(gl.z, 0.0f));
+        out = gi_add(out, gi_mul(b.ks, gl));
+    }
+    return out;
 }
 
 /* Light lt at aa*aa - 1 more points of pixel (x, y)'s plane (stratified
@@ -985,7 +1070,7 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
 
 int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
                    const gi_light *lights, size_t num_lights, const gi_material *mats,
-                   const float *gpe, const gi_shade_opts *o, float *rgb, gi_shade_times *times,
+                   const float *gpe, const float *gpt, const gi_shade_opts *o, float *rgb, gi_shade_times *times,
                    gi_status *st)
 {
     int ss = o->ss < 1 ? 1 : o->ss;
@@ -1135,14 +1220,14 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             for (int k = 0; k < S; k++) {
                 const ssurf *sf = &sh->sf[(size_t)k * np + pix];
                 if (sf->valid)
-                    sum = gi_add(sum, indirect_sample(sf, mats, gpe));
+                    sum = gi_add(sum, indirect_sample(sh, sf, mats, gpe, gpt));
             }
             uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
             if (e != UINT32_MAX) {
                 for (int j = 0; j < NE; j++) {
                     const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
                     if (sf->valid)
-                        sum = gi_add(sum, indirect_sample(sf, mats, gpe));
+                        sum = gi_add(sum, indirect_sample(sh, sf, mats, gpe, gpt));
                 }
                 count += NE;
             }

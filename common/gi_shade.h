@@ -53,10 +53,11 @@ void gi_shade_opts_default(gi_shade_opts *o);
 int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade **out, gi_status *st);
 void gi_shade_free(gi_shade *sh);
 /* Render one frame into rgb (3 floats per pixel). gp_irradiance: 3 floats per
- * gathering point (gi_relight_gpoint_irradiance). */
+ * gathering point (gi_relight_gpoint_irradiance); gp_gradient: 9 per point
+ * (gi_relight_gpoint_gradient) or NULL, for low-frequency glossy reflection. */
 int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h,
                    const gi_light *lights, size_t num_lights, const gi_material *mats,
-                   const float *gp_irradiance, const gi_shade_opts *o, float *rgb,
+                   const float *gp_irradiance, const float *gp_gradient, const gi_shade_opts *o, float *rgb,
                    gi_shade_times *times, gi_status *st);
 /* Interpolated indirect irradiance (lux, RGB) at surface point p with
  * oriented normal n; 0 if no gathering point is near. For tests and tools. */

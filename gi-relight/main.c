@@ -345,7 +345,8 @@ int main(int argc, char **argv)
         }
         gi_shade_times stt;
         if ((rc = gi_shade_frame(sh, gb, &fr.camera, fr.width, fr.height, flights, nfl, fr.materials,
-                                 gi_relight_gpoint_irradiance(rl), &so, rgb, &stt, &st)))
+                                 gi_relight_gpoint_irradiance(rl), gi_relight_gpoint_gradient(rl), &so, rgb, &stt,
+                                 &st)))
             break;
         double f1 = gi_now();
         char path[4096];

@@ -320,6 +320,20 @@ static void test_cornell_like_accuracy_and_bytes(void **state)
     assert_int_equal(gi_hvds_read(p1, p.s, 1234, p.gip->num_photons, &h2, &st), 0);
     assert_int_equal(h2->num_keys, p.h->num_keys);
     assert_int_equal(h2->num_pairs, p.h->num_pairs);
+    /* GDIR: the pairs' mean ray directions survive the file, lie in their
+     * point's hemisphere and are no longer than a unit vector */
+    assert_non_null(p.h->pair_dir);
+    assert_non_null(h2->pair_dir);
+    assert_memory_equal(h2->pair_dir, p.h->pair_dir, 3 * (size_t)p.h->num_pairs);
+    for (uint32_t i = 0; i < h2->num_gpoints; i++) {
+        const gi_gpoint *g = &h2->gpoints[i];
+        for (uint32_t j = g->first_pair; j < g->first_pair + g->num_pairs; j++) {
+            const int8_t *d = h2->pair_dir + 3 * (size_t)j;
+            float x = d[0] / 127.0f, y = d[1] / 127.0f, z = d[2] / 127.0f;
+            assert_true(x * x + y * y + z * z <= 1.03f);
+            assert_true(x * g->nrm[0] + y * g->nrm[1] + z * g->nrm[2] > -0.05f);
+        }
+    }
     gi_hvds_free(h2);
     assert_int_equal(gi_hvds_read(p1, p.s, 4321, p.gip->num_photons, &h2, &st), GI_EXIT_DATA);
     assert_non_null(strstr(st.msg, "gip"));
