@@ -46,7 +46,8 @@ void gi_image_release(gi_image *im);
  * the fourth are dropped. Stored values are not altered (alpha is not
  * premultiplied on read); 8-bit files read as byte / 255. *out must be zeroed or released; it is replaced. */
 int gi_image_read(const char *path, gi_image *out, gi_status *st);
-/* Write 32-bit float OpenEXR, zip compression, channel names Y / YA / RGB /
+/* Write 32-bit float OpenEXR, uncompressed (zip saved 8% of float pixels for
+ * ~40 ms per 640x480 frame), channel names Y / YA / RGB /
  * RGBA; each meta entry becomes the string attribute "gi:<key>". Empty values
  * are refused (GI_EXIT_DATA): OIIO would drop them silently. */
 int gi_image_write_exr(const char *path, const gi_image *im, const gi_image_meta *meta,

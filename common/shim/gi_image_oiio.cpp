@@ -270,7 +270,7 @@ int gi_image_write_exr(const char *path, const gi_image *im, const gi_image_meta
         case 3: spec.channelnames = {"R", "G", "B"}; break;
         default: spec.channelnames = {"R", "G", "B", "A"}; spec.alpha_channel = 3; break;
         }
-        spec.attribute("compression", "zip");
+        spec.attribute("compression", "none");
         for (size_t i = 0; i < nmeta; i++) {
             if (!meta[i].key || !meta[i].key[0] || !meta[i].value)
                 return gi_status_set(st, GI_EXIT_SYSTEM, "%s: metadata entry %zu is null", path,
