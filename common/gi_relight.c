@@ -41,6 +41,7 @@ struct gi_relight {
     float *entry_pos;     /* 3 per entry */
     float *entry_nrm;     /* 3 per entry */
     float *entry_texel;   /* 3 per entry: base-colour texture value (1 if untextured); base = factor * texel */
+    float *entry_fd;      /* 3 per entry: dA cos_o / pdf * kd / pi for a purely diffuse entry; x < 0: glossy */
     float *flux;          /* 3 per photon vertex: outgoing flux */
     float *key_flux;      /* 3 per key */
     uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
@@ -59,13 +60,14 @@ static int alloc_all(gi_relight *r)
     r->entry_pos = malloc((3 * E + 3) * sizeof *r->entry_pos);
     r->entry_nrm = malloc((3 * E + 3) * sizeof *r->entry_nrm);
     r->entry_texel = malloc((3 * E + 3) * sizeof *r->entry_texel);
+    r->entry_fd = malloc((3 * E + 3) * sizeof *r->entry_fd);
     r->key_flux = calloc(3 * K + 3, sizeof *r->key_flux);
     r->key_start = calloc(K + 2, sizeof *r->key_start);
     r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
     r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
     if (r->h->pair_dir && !(r->gp_t = calloc(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
         return -1;
-    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->key_flux && r->key_start &&
+    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->entry_fd && r->key_flux && r->key_start &&
                    r->key_photon && r->gp_e
                ? 0
                : -1;
@@ -137,6 +139,7 @@ void gi_relight_free(gi_relight *r)
     free(r->entry_pos);
     free(r->entry_nrm);
     free(r->entry_texel);
+    free(r->entry_fd);
     free(r->key_flux);
     free(r->key_start);
     free(r->key_photon);
@@ -155,6 +158,27 @@ static gi_vec3 vertex_base(const gi_relight *r, const gi_material *m, uint64_t i
     return gi_v3p(rgb);
 }
 
+/* dA cos_o / (pdf q) * kd / pi of entry e under material m when m has no
+ * glossy lobe (then the flux leaving e along its path is this times the sum
+ * of the lights' irradiance E_l); fd[0] = -1 when it has one. */
+static void entry_factor(const gi_relight *r, uint32_t e, const gi_material *m, float fd[3])
+{
+    const gi_gip *g = r->gip;
+    uint64_t v0 = g->path_start[e];
+    gi_bsdf b;
+    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(r->entry_texel + 3 * (size_t)e)));
+    if (gi_maxc(b.ks) > 0.0f) {
+        fd[0] = -1.0f;
+        fd[1] = fd[2] = 0.0f;
+        return;
+    }
+    gi_vec3 nn = gi_v3p(r->entry_nrm + 3 * (size_t)e), wo = gi_v3p(g->w_out + 3 * v0);
+    float coso = fmaxf(gi_dot(nn, wo), 0.0f);
+    float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);
+    float k = denom > 0.0f && coso > 0.0f ? g->entry_dA[e] * coso / fmaxf(denom, 1e-30f) * GI_INV_PIf : 0.0f;
+    gi_v3store(fd, gi_scale(b.kd, k));
+}
+
 int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsigned char *changed,
                              gi_status *st)
 {
@@ -168,6 +192,16 @@ int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsig
     }
     const gi_gip *g = r->gip;
     const gi_scene *s = r->s;
+    /* entry points of diffuse materials: the light-independent factor of their
+     * outgoing flux, so that a light change costs one product per light */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
+    for (uint32_t e = 0; e < g->num_entries; e++) {
+        uint64_t v0 = g->path_start[e];
+        uint32_t mi = s->tri_material[g->tri[v0]];
+        if (changed && !changed[mi])
+            continue;
+        entry_factor(r, e, &mats[mi], r->entry_fd + 3 * (size_t)e);
+    }
     if (!changed && r->s->num_materials > 0 &&
         !memcmp(mats, s->materials, s->num_materials * sizeof *mats)) {
         /* the scene's own materials: the compact section already holds R_k */
@@ -346,6 +380,15 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
     for (uint32_t e = 0; e < g->num_entries; e++) {
         uint64_t v0 = g->path_start[e];
+        const float *fd = r->entry_fd + 3 * (size_t)e;
+        if (fd[0] >= 0.0f) {
+            /* diffuse: the same value as the general case below, one product per light */
+            gi_vec3 esum = gi_v3(0, 0, 0);
+            for (int u = 0; u < nused; u++)
+                esum = gi_add(esum, gi_v3p(r->slots[slot_of[u]].e + 3 * (size_t)e));
+            gi_v3store(r->flux + 3 * v0, gi_mul(gi_v3p(fd), esum));
+            continue;
+        }
         gi_vec3 nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
         const gi_material *m = &r->mats[s->tri_material[g->tri[v0]]];
         gi_bsdf b;
