@@ -143,7 +143,7 @@ int main(int argc, char **argv)
                 h->num_keys);
         gi_info("%s: %lld bytes; per photon %.2f bytes (key) + %.2f (.gip compact, read every frame); per gathering ray "
                 "%.2f bytes; load %.2f s, build %.2f s, total %.2f s",
-                out, size, 4.0, (double)gi_gip_compact_bytes(gip) / (double)(gip->num_photons ? gip->num_photons : 1), h->num_rays ? 6.0 * h->num_pairs / (double)h->num_rays : 0.0,
+                out, size, 4.0, (double)gi_gip_compact_bytes(gip) / (double)(gip->num_photons ? gip->num_photons : 1), h->num_rays ? (h->pair_dir ? 9.0 : 6.0) * h->num_pairs / (double)h->num_rays : 0.0,
                 t_load - t0, t_build - t_load, gi_now() - t0);
     }
     gi_hvds_free(h);
