@@ -313,6 +313,28 @@ static void test_emissive_configuration_factor(void **state)
     assert_int_equal(gi_light_sample_at(&ml, gi_v3(0, 2, 0), 0.5f, 0.5f, &ls), 0);
     assert_true(gi_emit_pdf(e, w.s->num_triangles + 5, gi_v3(0, 1, 0), 1.0f) == 0.0f);
     gi_emit_free(e);
+    /* double-sided, the same panel emits upwards too: from 1 m above it, by
+     * symmetry, the exact value of 1 m below; the power counts both sides */
+    gi_material *mats = malloc(w.s->num_materials * sizeof *mats);
+    assert_non_null(mats);
+    memcpy(mats, w.s->materials, w.s->num_materials * sizeof *mats);
+    mats[me].double_sided = 1;
+    assert_int_equal(gi_emit_build(w.s, mats, &e, &st), 0);
+    assert_non_null(e);
+    assert_true(fabs(e->power - GI_PI * L) < 1e-3 * GI_PI * L);
+    gi_emit_light(e, 2, &ml);
+    gi_vec3 up = gi_v3(0, 2, 0), down = gi_v3(0, -1, 0);
+    double expect = L * polygon_projected_solid_angle(poly, 4, gi_v3(0, 0, 0), gi_v3(0, 1, 0)), sum = 0.0;
+    const int k = 256;
+    for (int j = 0; j < k * k; j++) {
+        gi_light_sample s2;
+        if (gi_light_sample_at(&ml, up, ((float)(j % k) + 0.5f) / (float)k, ((float)(j / k) + 0.5f) / (float)k, &s2))
+            sum += (double)s2.value.y * fmax(0.0, (double)gi_dot(down, s2.wi));
+    }
+    print_message("double-sided panel from above: %.5g lux, exact %.5g\n", sum / (k * k), expect);
+    assert_true(fabs(sum / (k * k) - expect) < 0.003 * expect);
+    gi_emit_free(e);
+    free(mats);
     world_free(&w);
 }
 
