@@ -98,6 +98,8 @@ static void check_hvds(const gi_hvds *h, const gi_scene *s)
         if (h->pair_key[i] >= K)
             abort();
         sink += h->pair_count[i];
+        if (h->pair_dir) /* GDIR (1.1): one direction per pair, all readable */
+            sink += (unsigned)(h->pair_dir[3 * (size_t)i] + h->pair_dir[3 * (size_t)i + 1] + h->pair_dir[3 * (size_t)i + 2]);
     }
     for (uint32_t i = 0; i < h->num_gpoints; i++) {
         const gi_gpoint *g = &h->gpoints[i];
