@@ -88,7 +88,7 @@ scene_hash() {
 # renders the references again.
 pt_hash() {
   local r=${ROOT:-.}
-  cat "$r"/common/gi_pt.[ch] "$r"/common/gi_brdf.[ch] "$r"/common/gi_light.[ch] "$r"/common/gi_rt.[ch] \
+  cat "$r"/common/gi_pt.[ch] "$r"/common/gi_brdf.[ch] "$r"/common/gi_light.[ch] "$r"/common/gi_emit.[ch] "$r"/common/gi_rt.[ch] \
       "$r"/common/gi_scene.[ch] "$r"/common/gi_script.[ch] "$r"/common/gi_rng.h 2>/dev/null |
     sha256sum | cut -c1-16
 }
