@@ -116,7 +116,7 @@ static void lobe_tables(gi_shade *sh)
             double co = (double)i / (LOBE_NC - 1), so = sqrt(fmax(0.0, 1.0 - co * co));
             /* wo = (so, 0, co), mirror r = (-so, 0, co); tangent t = (-1, 0, 0) */
             double rx = -so, rz = co;
-            /* basis about r: e1 = (rz, 0, -rx)... orthonormal to r in the x-z plane, e2 = y */
+            /* about r: e1 = (rz, 0, -rx) (unit, orthogonal to r in the x-z plane) and y */
             double e1x = rz, e1z = -rx;
             double sa = 0.0, sb = 0.0;
             for (int p = 0; p < K; p++)
@@ -852,9 +852,6 @@ static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *i
     }
 }
 
-/* Indirect light of one sample: interpolated irradiance times the reflectance.
- * Low-frequency approximation: the whole BRDF sees the indirect light as
- * diffuse (its hemispherical albedo, at most 1, over pi). */
 /* Indirect light of one pixel sample: the diffuse lobe takes the interpolated
  * irradiance, kd E / pi; the glossy lobe takes ks (A E / pi + B b_t . t), the
  * lobe integrated against incident radiance linear in direction
