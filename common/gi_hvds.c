@@ -745,8 +745,8 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     float diag = scene_diag(s);
     if (!(diag > 0.0f))
         return gi_status_set(st, GI_EXIT_DATA, "%s: the scene has no extent", s->path);
-    float rmax = o.r_max > 0.0f ? o.r_max : diag / 64.0f;
-    float rmin = o.r_min > 0.0f ? o.r_min : rmax / 10.0f;
+    float rmax = o.r_max > 0.0f ? o.r_max : diag / 128.0f;
+    float rmin = o.r_min > 0.0f ? o.r_min : rmax / 5.0f;
     if (rmin > rmax)
         return gi_status_set(st, GI_EXIT_USAGE, "--r-min %g is larger than --r-max %g", rmin, rmax);
     o.r_max = rmax;

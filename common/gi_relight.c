@@ -44,6 +44,7 @@ struct gi_relight {
     float *entry_fd;      /* 3 per entry: dA cos_o / pdf * kd / pi for a purely diffuse entry; x < 0: glossy */
     float *flux;          /* 3 per photon vertex: outgoing flux */
     float *key_flux;      /* 3 per key */
+    float *key_rad;       /* 4 per key: radiance pi/N * flux * scale (RGB, pad), read by the gather */
     uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
     uint32_t *key_photon;
     float *gp_e;          /* 3 per gathering point */
@@ -62,12 +63,14 @@ static int alloc_all(gi_relight *r)
     r->entry_texel = malloc((3 * E + 3) * sizeof *r->entry_texel);
     r->entry_fd = malloc((3 * E + 3) * sizeof *r->entry_fd);
     r->key_flux = calloc(3 * K + 3, sizeof *r->key_flux);
+    r->key_rad = calloc(4 * K + 4, sizeof *r->key_rad);
     r->key_start = calloc(K + 2, sizeof *r->key_start);
     r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
     r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
     if (r->h->pair_dir && !(r->gp_t = calloc(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
         return -1;
-    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->entry_fd && r->key_flux && r->key_start &&
+    return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->entry_fd && r->key_flux && r->key_rad &&
+                   r->key_start &&
                    r->key_photon && r->gp_e
                ? 0
                : -1;
@@ -141,6 +144,7 @@ void gi_relight_free(gi_relight *r)
     free(r->entry_texel);
     free(r->entry_fd);
     free(r->key_flux);
+    free(r->key_rad);
     free(r->key_start);
     free(r->key_photon);
     free(r->gp_e);
@@ -442,22 +446,28 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             r->key_flux[3 * (size_t)p + c] += r->key_flux[3 * (size_t)k + c];
     }
     double t3 = gi_now();
-    /* 4. gathering points: E = sum over rays of L(key) * pi / N, L = flux * scale */
+    /* 4. gathering points: E = sum over rays of L(key) * pi / N, L = flux * scale;
+     * the per-key factor is taken once here so the pair loop reads one
+     * 16-byte record per ray */
     float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
+#pragma omp parallel for schedule(static) num_threads(r->threads)
+    for (uint32_t k = 0; k < K; k++)
+        for (int c = 0; c < 3; c++)
+            r->key_rad[4 * (size_t)k + c] = (float)((double)r->key_flux[3 * (size_t)k + c] * h->key_scale[k] * w);
 #pragma omp parallel for schedule(static) num_threads(r->threads)
     for (uint32_t i = 0; i < h->num_gpoints; i++) {
         const gi_gpoint *gp = &h->gpoints[i];
         double a[3] = {0, 0, 0};
         for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
-            uint32_t k = h->pair_key[j];
-            double sc = (double)h->pair_count[j] * h->key_scale[k];
-            a[0] += sc * r->key_flux[3 * (size_t)k];
-            a[1] += sc * r->key_flux[3 * (size_t)k + 1];
-            a[2] += sc * r->key_flux[3 * (size_t)k + 2];
+            const float *L = r->key_rad + 4 * (size_t)h->pair_key[j];
+            double cnt = (double)h->pair_count[j];
+            a[0] += cnt * L[0];
+            a[1] += cnt * L[1];
+            a[2] += cnt * L[2];
         }
-        r->gp_e[3 * i] = (float)(a[0] * w);
-        r->gp_e[3 * i + 1] = (float)(a[1] * w);
-        r->gp_e[3 * i + 2] = (float)(a[2] * w);
+        r->gp_e[3 * i] = (float)a[0];
+        r->gp_e[3 * i + 1] = (float)a[1];
+        r->gp_e[3 * i + 2] = (float)a[2];
         if (r->gp_t && r->any_glossy) {
             /* the cosine-weighted first moment M1 = (1/N) sum L w of the
              * incident radiance; for L(w) = a + b.w its part tangential to the

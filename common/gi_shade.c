@@ -34,6 +34,17 @@ typedef struct ssurf {
     float w[GI_SHADE_K]; /* normalised weights */
 } ssurf;
 
+/* What the splat reads of a sample, packed into one cache line: the ssurf
+ * is 136 bytes and a light move reads every sample's weights, so the splat
+ * was bound by memory. Weights are normalised, stored * 65535. A sample on a
+ * glossy material is splatted from its ssurf (it needs ns and wo). */
+typedef struct srec {
+    uint32_t gp[GI_SHADE_K];
+    uint16_t w[GI_SHADE_K];
+    float texel[3];
+    uint32_t material; /* UINT32_MAX: no surface */
+} srec;
+
 /* Glossy lobe tables over (cos theta_o, Phong exponent): A, the lobe's
  * directional albedo int (n+2)/(2 pi) cos^n a cos theta_i dw over the upper
  * hemisphere, and B, the same integral of w . t with t the unit tangential
@@ -63,6 +74,11 @@ struct gi_shade {
      * edge number -> pixel, and ne samples per edge pixel */
     uint32_t *eidx, *epix;
     ssurf *esf;
+    /* splat records of sf (rec) and of esf (erec); esrc: per edge sample,
+     * the sf index whose weights and texel it reused (UINT32_MAX: its own) */
+    srec *rec, *erec;
+    uint32_t *esrc;
+    float *cind;        /* 3 per sf sample: its indirect light, scratch of the splat */
     size_t nedge;
     int ne;
     /* direct light per light, per pixel, for the current view (view_id):
@@ -280,6 +296,10 @@ void gi_shade_free(gi_shade *sh)
     free(sh->esf);
     free(sh->epix);
     free(sh->eidx);
+    free(sh->rec);
+    free(sh->erec);
+    free(sh->esrc);
+    free(sh->cind);
     for (int i = 0; i < GI_SHADE_DCACHE; i++) {
         free(sh->dc[i].rgb);
         free(sh->dc[i].vis);
@@ -462,6 +482,19 @@ static int discontinuous(const ssurf *a, const ssurf *b, float pix_angle)
     return discontinuity(a, b, pix_angle) != 0;
 }
 
+static void pack_rec(const ssurf *sf, srec *r)
+{
+    memset(r, 0, sizeof *r);
+    r->material = sf->valid ? sf->material : UINT32_MAX;
+    if (!sf->valid)
+        return;
+    memcpy(r->texel, sf->texel, sizeof r->texel);
+    for (int q = 0; q < sf->npairs; q++) {
+        r->gp[q] = sf->gp[q];
+        r->w[q] = (uint16_t)lrintf(gi_clampf(sf->w[q], 0.0f, 1.0f) * 65535.0f);
+    }
+}
+
 /* Rasterise and fill the per-sample cache; with ss == 1 and aa >= 3, find the
  * pixels on geometric edges and give each aa*aa - 1 more samples (Embree
  * camera rays, stratified over the pixel around the centre sample). */
@@ -474,8 +507,14 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     free(sh->esf);
     free(sh->epix);
     free(sh->eidx);
+    free(sh->rec);
+    free(sh->erec);
+    free(sh->esrc);
+    free(sh->cind);
     sh->esf = NULL;
-    sh->epix = sh->eidx = NULL;
+    sh->epix = sh->eidx = sh->esrc = NULL;
+    sh->rec = sh->erec = NULL;
+    sh->cind = NULL;
     sh->nedge = 0;
     sh->ne = 0;
     sh->px = malloc(ns * sizeof *sh->px);
@@ -541,7 +580,8 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         int ne = aa * aa - 1;
         sh->epix = malloc((nedge + 1) * sizeof *sh->epix);
         sh->esf = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esf);
-        if (!sh->epix || !sh->esf)
+        sh->esrc = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esrc);
+        if (!sh->epix || !sh->esf || !sh->esrc)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu edge pixels", nedge);
         for (size_t pix = 0; pix < np; pix++)
             if (sh->eidx[pix] != UINT32_MAX)
@@ -561,6 +601,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                     continue; /* the centre cell: the G-buffer's sample */
                 float fx = (float)x + ((float)(c % aa) + gi_rng_float(&r)) * estep;
                 float fy = (float)y + ((float)(c / aa) + gi_rng_float(&r)) * estep;
+                sh->esrc[e * (size_t)ne + (size_t)j] = UINT32_MAX;
                 ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j++];
                 o->valid = 0;
                 o->npairs = 0;
@@ -576,6 +617,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 /* the texel (filtered over its pixel) and interpolation weights
                  * of the centre's or a neighbour's sample on the same surface;
                  * computed afresh only on a surface none of them sees */
+                const size_t ci[5] = {pix, pix - 1, pix + 1, pix - (size_t)w, pix + (size_t)w};
                 const ssurf *cand[5] = {&sh->sf[pix], x > 0 ? &sh->sf[pix - 1] : NULL,
                                         x + 1 < w ? &sh->sf[pix + 1] : NULL, y > 0 ? &sh->sf[pix - w] : NULL,
                                         y + 1 < h ? &sh->sf[pix + w] : NULL};
@@ -586,6 +628,11 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                         memcpy(o->gp, cand[q]->gp, sizeof o->gp);
                         memcpy(o->w, cand[q]->w, sizeof o->w);
                         memcpy(o->texel, cand[q]->texel, sizeof o->texel);
+                        /* same material, weights and texel: the splat takes
+                         * that sample's indirect light (wo and ns differ by
+                         * less than a pixel, which only a glossy lobe sees) */
+                        if (o->material == cand[q]->material)
+                            sh->esrc[e * (size_t)ne + (size_t)(j - 1)] = (uint32_t)ci[q];
                         reused = 1;
                     }
                 if (!reused && texf && s->materials[o->material].base_color_tex >= 0) {
@@ -602,6 +649,17 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         gi_verbose("edge antialiasing: %zu of %zu pixels (%.1f%%) get %d more samples", nedge, np,
                    100.0 * (double)nedge / (double)np, ne);
     }
+    sh->rec = malloc((ns + 1) * sizeof *sh->rec);
+    sh->erec = malloc((sh->nedge * (size_t)sh->ne + 1) * sizeof *sh->erec);
+    sh->cind = malloc((3 * ns + 1) * sizeof *sh->cind);
+    if (!sh->rec || !sh->erec || !sh->cind)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu splat records", ns);
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (size_t i = 0; i < ns; i++)
+        pack_rec(&sh->sf[i], &sh->rec[i]);
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (size_t i = 0; i < sh->nedge * (size_t)sh->ne; i++)
+        pack_rec(&sh->esf[i], &sh->erec[i]);
     gi_verbose("view: rasterise %.1f ms, %zu surfaces and weights %.1f ms, edge samples %.1f ms",
                1e3 * (tv1 - tv0), ns, 1e3 * (tv2 - tv1), 1e3 * (gi_now() - tv2));
     sh->pw = w;
@@ -896,6 +954,33 @@ static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const
         out = gi_add(out, gi_mul(b.ks, gl));
     }
     return out;
+}
+
+/* One sample's indirect light: from its packed record when its material
+ * is diffuse (the common case), else from its ssurf. */
+static inline gi_vec3 splat_rec(const gi_shade *sh, const srec *r, const ssurf *sf, const uint8_t *glossy,
+                                const gi_material *mats, const float *gpe, const float *gpt)
+{
+    if (r->material == UINT32_MAX)
+        return gi_v3(0, 0, 0);
+    if (glossy[r->material])
+        return indirect_sample(sh, sf, mats, gpe, gpt);
+    const gi_material *m = &mats[r->material];
+    float e[3] = {0, 0, 0};
+    uint32_t wsum = 0;
+    for (int q = 0; q < GI_SHADE_K; q++) {
+        const float *g = gpe + 3 * (size_t)r->gp[q];
+        float wq = (float)r->w[q];
+        wsum += r->w[q];
+        e[0] += wq * g[0];
+        e[1] += wq * g[1];
+        e[2] += wq * g[2];
+    }
+    if (!wsum)
+        return gi_v3(0, 0, 0);
+    gi_bsdf b;
+    gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(r->texel)));
+    return gi_mul(b.kd, gi_scale(gi_v3p(e), GI_INV_PIf / (float)wsum));
 }
 
 /* Light lt at aa*aa - 1 more points of pixel (x, y)'s plane (stratified
@@ -1213,23 +1298,40 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     if (has_area)
         visible_area_lights(sh, cam, w, h, lights, num_lights, rgb, threads);
     double t2 = gi_now();
-    /* pass 2: indirect light from the cached interpolation weights */
+    /* pass 2: indirect light from the cached interpolation weights: each
+     * sf sample from its packed record, then each pixel's average, where an
+     * edge sample that reused a neighbour's weights takes its value */
     if (o->indirect && gpe) {
+        const size_t ns = np * (size_t)S;
+        uint8_t *glossy = malloc(nm ? nm : 1);
+        if (!glossy)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        for (size_t m = 0; m < nm; m++) {
+            gi_bsdf b;
+            gi_bsdf_init(&b, &mats[m], gi_v3p(mats[m].base_color));
+            /* ks > 0 for some base colour: a glossy lobe whatever the texel */
+            glossy[m] = b.exponent > 0.0f;
+        }
+#pragma omp parallel for schedule(static) num_threads(threads)
+        for (size_t i = 0; i < ns; i++) {
+            gi_vec3 v = splat_rec(sh, &sh->rec[i], &sh->sf[i], glossy, mats, gpe, gpt);
+            gi_v3store(sh->cind + 3 * i, v);
+        }
 #pragma omp parallel for schedule(static) num_threads(threads)
         for (size_t pix = 0; pix < np; pix++) {
             gi_vec3 sum = gi_v3(0, 0, 0);
             int count = S;
-            for (int k = 0; k < S; k++) {
-                const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-                if (sf->valid)
-                    sum = gi_add(sum, indirect_sample(sh, sf, mats, gpe, gpt));
-            }
+            for (int k = 0; k < S; k++)
+                sum = gi_add(sum, gi_v3p(sh->cind + 3 * ((size_t)k * np + pix)));
             uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
             if (e != UINT32_MAX) {
                 for (int j = 0; j < NE; j++) {
-                    const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
-                    if (sf->valid)
-                        sum = gi_add(sum, indirect_sample(sh, sf, mats, gpe, gpt));
+                    size_t q = (size_t)e * (size_t)NE + (size_t)j;
+                    uint32_t src = sh->esrc[q];
+                    if (src != UINT32_MAX)
+                        sum = gi_add(sum, gi_v3p(sh->cind + 3 * (size_t)src));
+                    else
+                        sum = gi_add(sum, splat_rec(sh, &sh->erec[q], &sh->esf[q], glossy, mats, gpe, gpt));
                 }
                 count += NE;
             }
@@ -1239,6 +1341,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             out[1] += sum.y * sc;
             out[2] += sum.z * sc;
         }
+        free(glossy);
     }
     double t3 = gi_now();
     if (times) {

@@ -27,7 +27,7 @@ static void help(void)
            "  --gather rejection|kmeans  gathering-point selection (default rejection: Tabellion metric)\n"
            "  --gather-rays N          rays per gathering point, rounded to a square (default %d)\n"
            "  --r-min R, --r-max R     min/max spacing of gathering points in metres\n"
-           "                           (default R+ = scene diagonal / 64, R- = R+ / 10)\n"
+           "                           (default R+ = scene diagonal / 128, R- = R+ / 5)\n"
            "  --dir-bins N             direction bins for glossy keys (default %d)\n"
            "  --cell-photons N         the smallest cell holds about N photons (default %g)\n"
            "  --key-photons N          a gathering ray reads the nearest coarser key holding at least\n"
