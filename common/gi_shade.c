@@ -21,6 +21,12 @@
 #include "gi_texfilter.h"
 
 #define GI_SHADE_K 8 /* gathering points kept per pixel sample (largest weights) */
+/* an edge pixel takes its edge samples for a light when the light's
+ * irradiance over its 3x3 neighbourhood spans more than this fraction of
+ * the light's mean over the image */
+#ifndef GI_SHADE_EDGE_CONTRAST
+#define GI_SHADE_EDGE_CONTRAST 0.02
+#endif
 #define GI_SHADE_DCACHE 8 /* lights whose direct light is kept per pixel */
 
 typedef struct ssurf {
@@ -78,7 +84,12 @@ struct gi_shade {
      * the sf index whose weights and texel it reused (UINT32_MAX: its own) */
     srec *rec, *erec;
     uint32_t *esrc;
+    uint8_t *svalid;    /* per sf sample: its valid flag, for scans that need no more of it */
+    uint8_t *ehard;     /* per edge pixel: its samples see more than one material, texel or the background */
     float *cind;        /* 3 per sf sample: its indirect light, scratch of the splat */
+    /* capacities (elements) of the per-view arrays: a camera move reuses
+     * them, since fresh pages cost a fault each (~30% of a camera move) */
+    size_t cap_px, cap_sf, cap_eidx, cap_epix, cap_esf, cap_esrc, cap_ehard, cap_rec, cap_erec, cap_cind, cap_svalid;
     size_t nedge;
     int ne;
     /* direct light per light, per pixel, for the current view (view_id):
@@ -93,6 +104,7 @@ struct gi_shade {
         size_t np;          /* pixels the buffers hold */
         float *rgb;         /* 3 per pixel */
         uint8_t *vis;       /* per pixel (ss == 1 and not an area light): 0, 1 lit, 2 shadowed */
+        float *ec;          /* per pixel (ss == 1): luminance of the light's irradiance at the centre sample */
     } dc[GI_SHADE_DCACHE];
     uint64_t frame_no;
     gi_material *pmats;     /* the materials the caches were computed with */
@@ -299,10 +311,13 @@ void gi_shade_free(gi_shade *sh)
     free(sh->rec);
     free(sh->erec);
     free(sh->esrc);
+    free(sh->ehard);
+    free(sh->svalid);
     free(sh->cind);
     for (int i = 0; i < GI_SHADE_DCACHE; i++) {
         free(sh->dc[i].rgb);
         free(sh->dc[i].vis);
+        free(sh->dc[i].ec);
     }
     free(sh->pmats);
     gi_texfilter_free(sh->tf);
@@ -498,28 +513,28 @@ static void pack_rec(const ssurf *sf, srec *r)
 /* Rasterise and fill the per-sample cache; with ss == 1 and aa >= 3, find the
  * pixels on geometric edges and give each aa*aa - 1 more samples (Embree
  * camera rays, stratified over the pixel around the centre sample). */
+/* *p holds at least n elements of size sz afterwards (contents undefined),
+ * or NULL when out of memory */
+static void reserve(void *pp, size_t *cap, size_t n, size_t sz)
+{
+    void **p = (void **)pp;
+    if (*p && n <= *cap)
+        return;
+    free(*p);
+    *p = malloc((n ? n : 1) * sz);
+    *cap = *p ? n : 0;
+}
+#define RESERVE(field, n) reserve(&sh->field, &sh->cap_##field, (n), sizeof *sh->field)
+
 static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h, int ss, int texf,
                         int aa, int threads, gi_status *st)
 {
     size_t np = (size_t)w * (size_t)h, ns = np * (size_t)(ss * ss);
-    free(sh->px);
-    free(sh->sf);
-    free(sh->esf);
-    free(sh->epix);
-    free(sh->eidx);
-    free(sh->rec);
-    free(sh->erec);
-    free(sh->esrc);
-    free(sh->cind);
-    sh->esf = NULL;
-    sh->epix = sh->eidx = sh->esrc = NULL;
-    sh->rec = sh->erec = NULL;
-    sh->cind = NULL;
     sh->nedge = 0;
     sh->ne = 0;
-    sh->px = malloc(ns * sizeof *sh->px);
-    sh->sf = malloc(ns * sizeof *sh->sf);
     sh->valid = 0;
+    RESERVE(px, ns);
+    RESERVE(sf, ns);
     if (!sh->px || !sh->sf)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for a %dx%d G-buffer with %dx%d samples", w, h, ss, ss);
     /* one jittered position per stratum (the same for every pixel of a pass):
@@ -553,8 +568,13 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         fill_sample(sh, cam, w, h, g->tri - 1, g->u, g->v, fx, fy, step, texf, 1, o);
     }
     double tv2 = gi_now();
+    if (!(ss == 1 && aa >= 3)) {
+        free(sh->eidx); /* NULL: this view has no edge samples */
+        sh->eidx = NULL;
+        sh->cap_eidx = 0;
+    }
     if (ss == 1 && aa >= 3) {
-        sh->eidx = malloc(np * sizeof *sh->eidx);
+        RESERVE(eidx, np);
         if (!sh->eidx)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for edge samples");
         float pix_angle = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
@@ -578,10 +598,13 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         gi_verbose("edge pixels: %zu by coverage, %zu by material, %zu by crease, %zu by depth step", why[1],
                    why[2], why[3], why[4]);
         int ne = aa * aa - 1;
-        sh->epix = malloc((nedge + 1) * sizeof *sh->epix);
-        sh->esf = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esf);
-        sh->esrc = malloc((nedge * (size_t)ne + 1) * sizeof *sh->esrc);
-        if (!sh->epix || !sh->esf || !sh->esrc)
+        RESERVE(epix, nedge + 1);
+        RESERVE(esf, nedge * (size_t)ne + 1);
+        RESERVE(esrc, nedge * (size_t)ne + 1);
+        RESERVE(ehard, nedge + 1);
+        if (sh->ehard)
+            memset(sh->ehard, 0, nedge + 1);
+        if (!sh->epix || !sh->esf || !sh->esrc || !sh->ehard)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu edge pixels", nedge);
         for (size_t pix = 0; pix < np; pix++)
             if (sh->eidx[pix] != UINT32_MAX)
@@ -645,18 +668,30 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 if (!reused)
                     o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
             }
+            /* hard: the pixel's coverage matters whatever the light */
+            const ssurf *c0 = &sh->sf[pix];
+            float t0 = gi_luminance(gi_v3p(c0->texel));
+            for (int j = 0; j < ne && !sh->ehard[e]; j++) {
+                const ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j];
+                sh->ehard[e] = o->valid != c0->valid ||
+                               (o->valid && (o->material != c0->material ||
+                                             fabsf(gi_luminance(gi_v3p(o->texel)) - t0) > 0.2f * t0));
+            }
         }
         gi_verbose("edge antialiasing: %zu of %zu pixels (%.1f%%) get %d more samples", nedge, np,
                    100.0 * (double)nedge / (double)np, ne);
     }
-    sh->rec = malloc((ns + 1) * sizeof *sh->rec);
-    sh->erec = malloc((sh->nedge * (size_t)sh->ne + 1) * sizeof *sh->erec);
-    sh->cind = malloc((3 * ns + 1) * sizeof *sh->cind);
-    if (!sh->rec || !sh->erec || !sh->cind)
+    RESERVE(rec, ns + 1);
+    RESERVE(erec, sh->nedge * (size_t)sh->ne + 1);
+    RESERVE(cind, 3 * ns + 1);
+    RESERVE(svalid, ns + 1);
+    if (!sh->rec || !sh->erec || !sh->cind || !sh->svalid)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu splat records", ns);
 #pragma omp parallel for schedule(static) num_threads(threads)
-    for (size_t i = 0; i < ns; i++)
+    for (size_t i = 0; i < ns; i++) {
         pack_rec(&sh->sf[i], &sh->rec[i]);
+        sh->svalid[i] = sh->sf[i].valid;
+    }
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t i = 0; i < sh->nedge * (size_t)sh->ne; i++)
         pack_rec(&sh->esf[i], &sh->erec[i]);
@@ -804,7 +839,8 @@ typedef struct sbatch {
     const gi_rt *rt;
     int n;
     gi_vec3 o[SB_CAP], d[SB_CAP], c[SB_CAP];
-    float t[SB_CAP];
+    float t[SB_CAP], ce[SB_CAP];
+    float *eacc;        /* NULL, or per slot: sum of the irradiance luminance of the rays that found the light */
     uint32_t idx[SB_CAP];
     uint8_t occ[SB_CAP];
     gi_vec3 *acc;
@@ -819,6 +855,8 @@ static void sb_flush(sbatch *b)
     for (int q = 0; q < b->n; q++)
         if (!b->occ[q]) {
             b->acc[b->idx[q]] = gi_add(b->acc[b->idx[q]], b->c[q]);
+            if (b->eacc)
+                b->eacc[b->idx[q]] += b->ce[q];
             if (b->nlit)
                 b->nlit[b->idx[q]]++;
         }
@@ -859,6 +897,7 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         b->d[q] = ls.wi;
         b->t[q] = gi_rt_shadow_tmax(p, b->o[q], ls.dist);
         b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
+        b->ce[q] = gi_luminance(ls.value) * cosi;
         b->idx[q] = slot;
         queued++;
     }
@@ -871,13 +910,16 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
  * sent the light no shadow ray, 1 when lit, 2 when shadowed. */
 static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *ids, size_t n, const gi_light *lt,
                           size_t l, const gi_material *mats, int ka, uint64_t seed, gi_vec3 *acc, gi_vec3 *out,
-                          uint8_t *vis, uint16_t *cnt)
+                          uint8_t *vis, uint16_t *cnt, float *eout)
 {
     int area = gi_light_has_area(lt);
     b->acc = acc;
     b->nlit = area ? cnt : NULL;
+    b->eacc = eout;
     for (size_t e = 0; e < n; e++) {
         acc[e] = gi_v3(0, 0, 0);
+        if (eout)
+            eout[e] = 0.0f;
         if (b->nlit)
             cnt[e] = 0;
         int q = samp[e] ? sb_light(b, samp[e], mats, lt, l, ka, seed, ids[e], (uint32_t)e) : 0;
@@ -899,12 +941,20 @@ static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *i
             cnt[e] = UINT16_MAX; /* refined */
         }
         sb_flush(b);
-        for (size_t e = 0; e < n; e++)
-            out[e] = gi_scale(acc[e], cnt[e] == UINT16_MAX ? 1.0f / (float)(ka * ka + kb * kb) : inv);
+        b->eacc = NULL;
+        for (size_t e = 0; e < n; e++) {
+            float sc = cnt[e] == UINT16_MAX ? 1.0f / (float)(ka * ka + kb * kb) : inv;
+            out[e] = gi_scale(acc[e], sc);
+            if (eout)
+                eout[e] *= sc;
+        }
         return;
     }
+    b->eacc = NULL;
     for (size_t e = 0; e < n; e++) {
         out[e] = gi_scale(acc[e], inv);
+        if (eout)
+            eout[e] *= inv;
         if (vis && vis[e] && gi_maxc(acc[e]) > 0.0f)
             vis[e] = 1;
     }
@@ -1046,10 +1096,15 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
  * passes. Returns 0, or 1 when out of memory. */
 static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi_light *lt, size_t l,
                       const gi_material *mats, const gi_shade_opts *o, int ka, const uint8_t *mask, float *C,
-                      uint8_t *vis, int threads)
+                      uint8_t *vis, float *ec, int threads)
 {
     const size_t np = (size_t)w * (size_t)h;
     const int S = sh->pss * sh->pss, NE = sh->ne;
+    if (S != 1 || !NE)
+        ec = NULL;
+    float tau = INFINITY; /* edge pixels with less contrast than this keep their centre sample */
+    double tp[3], tp0 = gi_now();
+    size_t nskip = 0;
     size_t rowlen = (size_t)w * (size_t)S, chunk = 64 * (size_t)(NE > 0 ? NE : 1);
     size_t cap = (rowlen > chunk ? rowlen : chunk) + (size_t)NE + 1;
     int fail = 0;
@@ -1062,7 +1117,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
         uint64_t *ids = malloc(cap * sizeof *ids);
         uint8_t *v = malloc(cap);
         uint16_t *cnt = malloc(cap * sizeof *cnt);
-        int ok = b && acc && L && samp && ids && v && cnt;
+        float *ev = malloc(cap * sizeof *ev);
+        int ok = b && acc && L && samp && ids && v && cnt && ev;
         if (!ok) {
 #pragma omp atomic write
             fail = 1;
@@ -1070,6 +1126,7 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
             b->rt = sh->rt;
             b->n = 0;
             b->nlit = NULL;
+            b->eacc = NULL;
         }
 #pragma omp for schedule(dynamic, 2)
         for (int y = 0; y < h; y++) {
@@ -1079,20 +1136,50 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
             for (size_t e = 0; e < rowlen; e++) {
                 size_t k = e % (size_t)S, pix = row0 + e / (size_t)S;
                 const ssurf *sf = &sh->sf[k * np + pix];
-                samp[e] = sf->valid && (!mask || mask[pix]) ? sf : NULL;
+                samp[e] = (!mask || mask[pix]) && sh->svalid[k * np + pix] ? sf : NULL;
                 ids[e] = pix * 64u + (uint64_t)k;
             }
-            light_samples(b, samp, ids, rowlen, lt, l, mats, ka, o->seed, acc, L, vis ? v : NULL, cnt);
+            light_samples(b, samp, ids, rowlen, lt, l, mats, ka, o->seed, acc, L, vis ? v : NULL, cnt,
+                          ec ? ev : NULL);
             for (int x = 0; x < w; x++) {
                 size_t pix = row0 + (size_t)x;
                 if (mask && !mask[pix])
                     continue;
+                if (ec)
+                    ec[pix] = ev[x];
                 gi_vec3 sum = gi_v3(0, 0, 0);
                 for (int k = 0; k < S; k++)
                     sum = gi_add(sum, L[(size_t)x * (size_t)S + (size_t)k]);
                 gi_v3store(C + 3 * pix, gi_scale(sum, 1.0f / (float)S));
                 if (vis)
                     vis[pix] = v[x];
+            }
+        }
+#pragma omp single
+        tp[0] = gi_now();
+        /* Edge pixels whose 5x5 neighbourhood of centre samples receives
+         * nearly the same irradiance from this light, and whose own samples
+         * all see one material and texel, keep their centre sample: the
+         * pixel's coverage does not matter for this light there. The
+         * threshold is a fraction of the light's mean irradiance over the
+         * visible samples; it and the decisions use only the light and the
+         * geometry, so a material change recomputes the same pixels.
+         * Measured on Sponza (640x480): 40-60% of the edge pixels skip, 3-5 ms
+         * per light; what it misses is sunlit slivers thinner than the
+         * pixel spacing between shadowed centres (a 3x3 neighbourhood: +0.002
+         * nrmse on sun-moved, 5x5: +0.0008, the other frames unchanged). */
+        if (ec) {
+#pragma omp single
+            {
+                double sum = 0.0;
+                size_t nv = 0;
+                for (size_t pix = 0; pix < np; pix++)
+                    if (sh->svalid[pix]) {
+                        sum += ec[pix];
+                        nv++;
+                    }
+                if (nv && sum > 0.0)
+                    tau = (float)(GI_SHADE_EDGE_CONTRAST * sum / (double)nv);
             }
         }
         /* edge pixels: the centre sample (in C now) and NE more, averaged */
@@ -1103,15 +1190,42 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                 continue;
             size_t e0 = c * 64, e1 = e0 + 64 < sh->nedge ? e0 + 64 : sh->nedge;
             size_t n = (e1 - e0) * (size_t)NE;
+            uint8_t skip[64];
+            size_t ns = 0;
+            for (size_t e = e0; e < e1; e++) {
+                skip[e - e0] = 0;
+                if (!ec || sh->ehard[e])
+                    continue;
+                size_t pix = sh->epix[e];
+                int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
+                float lo = INFINITY, hi = -INFINITY;
+                for (int dy = -2; dy <= 2; dy++)
+                    for (int dx = -2; dx <= 2; dx++) {
+                        int xx = x + dx, yy = y + dy;
+                        if (xx < 0 || yy < 0 || xx >= w || yy >= h)
+                            continue;
+                        size_t q = (size_t)yy * (size_t)w + (size_t)xx;
+                        if (!sh->svalid[q])
+                            continue;
+                        lo = fminf(lo, ec[q]);
+                        hi = fmaxf(hi, ec[q]);
+                    }
+                skip[e - e0] = hi - lo <= tau;
+                ns += skip[e - e0];
+            }
+            if (ns) {
+#pragma omp atomic
+                nskip += ns;
+            }
             for (size_t i = 0; i < n; i++) {
                 size_t e = e0 + i / (size_t)NE, j = i % (size_t)NE;
                 const ssurf *sf = &sh->esf[e * (size_t)NE + j];
-                samp[i] = sf->valid && (!mask || mask[sh->epix[e]]) ? sf : NULL;
+                samp[i] = !skip[e - e0] && (!mask || mask[sh->epix[e]]) && sf->valid ? sf : NULL;
                 ids[i] = (uint64_t)sh->epix[e] * 64u + 1u + (uint64_t)j;
             }
-            light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, NULL, cnt);
+            light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, NULL, cnt, NULL);
             for (size_t e = e0; e < e1; e++) {
-                if (mask && !mask[sh->epix[e]])
+                if ((mask && !mask[sh->epix[e]]) || skip[e - e0])
                     continue;
                 float *px = C + 3 * (size_t)sh->epix[e];
                 gi_vec3 sum = gi_v3p(px);
@@ -1120,6 +1234,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                 gi_v3store(px, gi_scale(sum, 1.0f / (float)(NE + 1)));
             }
         }
+#pragma omp single
+        tp[1] = gi_now();
         /* shadow edges: a pixel (not on a geometric edge) lit while a
          * neighbour is shadowed, or the reverse, gets the light at NE more
          * points of its plane */
@@ -1130,7 +1246,7 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                     continue;
                 for (int x = 0; x < w; x++) {
                     size_t pix = (size_t)y * (size_t)w + (size_t)x;
-                    if ((mask && !mask[pix]) || sh->eidx[pix] != UINT32_MAX || !sh->sf[pix].valid)
+                    if ((mask && !mask[pix]) || sh->eidx[pix] != UINT32_MAX || !sh->svalid[pix])
                         continue;
                     uint8_t v0 = vis[pix];
                     if (!v0)
@@ -1151,7 +1267,14 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
         free(ids);
         free(v);
         free(cnt);
+        free(ev);
     }
+    tp[2] = gi_now();
+    gi_verbose("light %zu: rows %.1f ms, edge pixels %.1f ms, shadow edges %.1f ms", l, 1e3 * (tp[0] - tp0),
+               1e3 * (tp[1] - tp[0]), 1e3 * (tp[2] - tp[1]));
+    if (ec)
+        gi_verbose("light %zu: %zu of %zu edge pixels kept their centre sample (contrast below %.3g)", l, nskip,
+                   sh->nedge, tau);
     return fail;
 }
 
@@ -1262,11 +1385,13 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             if (!d->rgb || d->np != np) {
                 free(d->rgb);
                 free(d->vis);
+                free(d->ec);
                 d->rgb = malloc(np * 3 * sizeof *d->rgb);
                 d->vis = malloc(np);
+                d->ec = malloc(np * sizeof *d->ec);
                 d->np = np;
             }
-            if (!d->rgb || !d->vis) {
+            if (!d->rgb || !d->vis || !d->ec) {
                 fail = 1;
                 break;
             }
@@ -1279,7 +1404,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         }
         if (!(d->view_id == sh->view_id && !any_changed)) {
             int use_vis = S == 1 && NE > 0 && !gi_light_has_area(lt);
-            if (light_pass(sh, cam, w, h, lt, l, mats, o, ka, m, d->rgb, use_vis ? d->vis : NULL, threads)) {
+            if (light_pass(sh, cam, w, h, lt, l, mats, o, ka, m, d->rgb, use_vis ? d->vis : NULL, d->ec, threads)) {
                 d->view_id = 0;
                 fail = 1;
                 break;
