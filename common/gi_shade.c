@@ -24,6 +24,14 @@
 /* an edge pixel takes its edge samples for a light when the light's
  * irradiance over its 3x3 neighbourhood spans more than this fraction of
  * the light's mean over the image */
+/* An edge pixel whose samples' irradiance from a light spans more than
+ * this fraction of the light's mean gets GI_SHADE_XK^2 more samples for that
+ * light (direct light only; their surfaces are found once per view). */
+#ifndef GI_SHADE_EDGE_REFINE
+#define GI_SHADE_EDGE_REFINE 1.0
+#endif
+#define GI_SHADE_XK 4
+#define GI_SHADE_XN (GI_SHADE_XK * GI_SHADE_XK)
 #ifndef GI_SHADE_EDGE_CONTRAST
 #define GI_SHADE_EDGE_CONTRAST 0.02
 #endif
@@ -85,6 +93,8 @@ struct gi_shade {
     srec *rec, *erec;
     uint32_t *esrc;
     uint8_t *svalid;    /* per sf sample: its valid flag, for scans that need no more of it */
+    ssurf **xsf;        /* per edge pixel: GI_SHADE_XN refinement samples, made when first needed (or NULL) */
+    size_t nxsf;        /* entries of xsf */
     uint8_t *ehard;     /* per edge pixel: its samples see more than one material, texel or the background */
     float *cind;        /* 3 per sf sample: its indirect light, scratch of the splat */
     /* capacities (elements) of the per-view arrays: a camera move reuses
@@ -295,6 +305,15 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
     return 0;
 }
 
+static void free_xsf(gi_shade *sh)
+{
+    for (size_t e = 0; sh->xsf && e < sh->nxsf; e++)
+        free(sh->xsf[e]);
+    free(sh->xsf);
+    sh->xsf = NULL;
+    sh->nxsf = 0;
+}
+
 void gi_shade_free(gi_shade *sh)
 {
     if (!sh)
@@ -314,6 +333,7 @@ void gi_shade_free(gi_shade *sh)
     free(sh->ehard);
     free(sh->svalid);
     free(sh->cind);
+    free_xsf(sh);
     for (int i = 0; i < GI_SHADE_DCACHE; i++) {
         free(sh->dc[i].rgb);
         free(sh->dc[i].vis);
@@ -530,6 +550,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                         int aa, int threads, gi_status *st)
 {
     size_t np = (size_t)w * (size_t)h, ns = np * (size_t)(ss * ss);
+    free_xsf(sh);
     sh->nedge = 0;
     sh->ne = 0;
     sh->valid = 0;
@@ -604,7 +625,9 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         RESERVE(ehard, nedge + 1);
         if (sh->ehard)
             memset(sh->ehard, 0, nedge + 1);
-        if (!sh->epix || !sh->esf || !sh->esrc || !sh->ehard)
+        sh->xsf = calloc(nedge + 1, sizeof *sh->xsf);
+        sh->nxsf = sh->xsf ? nedge : 0;
+        if (!sh->epix || !sh->esf || !sh->esrc || !sh->ehard || !sh->xsf)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu edge pixels", nedge);
         for (size_t pix = 0; pix < np; pix++)
             if (sh->eidx[pix] != UINT32_MAX)
@@ -1094,6 +1117,58 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
  * edges refined. mask (NULL: every pixel): only pixels with mask[pix]. vis:
  * per pixel (ss == 1, not an area light; else NULL), kept for later masked
  * passes. Returns 0, or 1 when out of memory. */
+/* The refinement samples of edge pixel e: GI_SHADE_XN Embree camera rays
+ * jittered over a GI_SHADE_XK^2 grid of the pixel, each with its texel taken
+ * from the pixel's own samples on the same surface, else the texture's value
+ * at the point.
+ * NULL when out of memory (the pixel then keeps its aa x aa estimate). */
+static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, size_t e)
+{
+    if (sh->xsf[e])
+        return sh->xsf[e];
+    ssurf *x = malloc(GI_SHADE_XN * sizeof *x);
+    if (!x)
+        return NULL;
+    size_t pix = sh->epix[e];
+    int px = (int)(pix % (size_t)w), py = (int)(pix / (size_t)w);
+    float pix_angle = 2.0f * tanf(0.5f * cam->yfov) / (float)h, step = 1.0f / (float)GI_SHADE_XK;
+    gi_rng r;
+    gi_rng_seed(&r, 0x3e6e, pix, 0);
+    for (int j = 0; j < GI_SHADE_XN; j++) {
+        ssurf *o = &x[j];
+        float fx = (float)px + ((float)(j % GI_SHADE_XK) + gi_rng_float(&r)) * step;
+        float fy = (float)py + ((float)(j / GI_SHADE_XK) + gi_rng_float(&r)) * step;
+        o->valid = 0;
+        o->npairs = 0;
+        o->tsurf = INFINITY;
+        gi_vec3 ro, rd;
+        gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
+        gi_hit hit;
+        if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, &hit))
+            continue;
+        fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, step, 0, 0, o);
+        if (!o->valid)
+            continue;
+        int reused = 0;
+        const ssurf *c0 = &sh->sf[pix];
+        if (c0->valid && !discontinuous(o, c0, pix_angle)) {
+            memcpy(o->texel, c0->texel, sizeof o->texel);
+            reused = 1;
+        }
+        for (int q = 0; q < sh->ne && !reused; q++) {
+            const ssurf *c = &sh->esf[e * (size_t)sh->ne + (size_t)q];
+            if (c->valid && !discontinuous(o, c, pix_angle)) {
+                memcpy(o->texel, c->texel, sizeof o->texel);
+                reused = 1;
+            }
+        }
+        /* else the texture at the point, as fill_sample left it: sixteen
+         * such samples average the texture over the pixel's part */
+    }
+    sh->xsf[e] = x;
+    return x;
+}
+
 static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi_light *lt, size_t l,
                       const gi_material *mats, const gi_shade_opts *o, int ka, const uint8_t *mask, float *C,
                       uint8_t *vis, float *ec, int threads)
@@ -1104,8 +1179,9 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
         ec = NULL;
     float tau = INFINITY; /* edge pixels with less contrast than this keep their centre sample */
     double tp[3], tp0 = gi_now();
-    size_t nskip = 0;
-    size_t rowlen = (size_t)w * (size_t)S, chunk = 64 * (size_t)(NE > 0 ? NE : 1);
+    size_t nskip = 0, nref = 0, nnew = 0;
+    float tau_ref = INFINITY; /* edge pixels with more contrast than this get refinement samples */
+    size_t rowlen = (size_t)w * (size_t)S, chunk = 64 * (size_t)(NE > GI_SHADE_XN ? NE : GI_SHADE_XN);
     size_t cap = (rowlen > chunk ? rowlen : chunk) + (size_t)NE + 1;
     int fail = 0;
 #pragma omp parallel num_threads(threads)
@@ -1178,8 +1254,14 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                         sum += ec[pix];
                         nv++;
                     }
-                if (nv && sum > 0.0)
+                if (nv && sum > 0.0) {
                     tau = (float)(GI_SHADE_EDGE_CONTRAST * sum / (double)nv);
+                    /* area lights: their own jittered samples already
+                     * average over the pixel's samples, and their estimate's
+                     * noise would read as contrast */
+                    if (o->edge_refine && !gi_light_has_area(lt))
+                        tau_ref = (float)(GI_SHADE_EDGE_REFINE * sum / (double)nv);
+                }
             }
         }
         /* edge pixels: the centre sample (in C now) and NE more, averaged */
@@ -1223,7 +1305,25 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                 samp[i] = !skip[e - e0] && (!mask || mask[sh->epix[e]]) && sf->valid ? sf : NULL;
                 ids[i] = (uint64_t)sh->epix[e] * 64u + 1u + (uint64_t)j;
             }
-            light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, NULL, cnt, NULL);
+            light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, NULL, cnt, ec ? ev : NULL);
+            /* pixels whose samples still see a strong contrast of this
+             * light's irradiance (a sunlit edge against shade) get
+             * GI_SHADE_XN more samples of it */
+            uint8_t refine[64];
+            size_t nr = 0;
+            for (size_t e = e0; e < e1; e++) {
+                refine[e - e0] = 0;
+                if (!ec || skip[e - e0] || (mask && !mask[sh->epix[e]]))
+                    continue;
+                float lo = ec[sh->epix[e]], hi = lo;
+                for (int j = 0; j < NE; j++) {
+                    const ssurf *sf = &sh->esf[e * (size_t)NE + (size_t)j];
+                    float v0 = sf->valid ? ev[(e - e0) * (size_t)NE + (size_t)j] : 0.0f;
+                    lo = fminf(lo, v0);
+                    hi = fmaxf(hi, v0);
+                }
+                refine[e - e0] = hi - lo > tau_ref;
+            }
             for (size_t e = e0; e < e1; e++) {
                 if ((mask && !mask[sh->epix[e]]) || skip[e - e0])
                     continue;
@@ -1232,6 +1332,43 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                 for (int j = 0; j < NE; j++)
                     sum = gi_add(sum, L[(e - e0) * (size_t)NE + (size_t)j]);
                 gi_v3store(px, gi_scale(sum, 1.0f / (float)(NE + 1)));
+            }
+            size_t n2 = 0;
+            for (size_t e = e0; e < e1; e++) {
+                if (!refine[e - e0])
+                    continue;
+                if (!sh->xsf[e]) {
+#pragma omp atomic
+                    nnew++;
+                }
+                const ssurf *x = extra_samples(sh, cam, w, h, e);
+                if (!x) {
+                    refine[e - e0] = 0;
+                    continue;
+                }
+                for (int j = 0; j < GI_SHADE_XN; j++) {
+                    samp[n2] = x[j].valid ? &x[j] : NULL;
+                    ids[n2++] = (uint64_t)sh->epix[e] * 64u + (uint64_t)j;
+                }
+                nr++;
+            }
+            if (nr) {
+#pragma omp atomic
+                nref += nr;
+            }
+            if (n2) {
+                light_samples(b, samp, ids, n2, lt, (uint64_t)l | (2ull << 32), mats, ka, o->seed, acc, L, NULL, cnt,
+                              NULL);
+                size_t k2 = 0;
+                for (size_t e = e0; e < e1; e++) {
+                    if (!refine[e - e0])
+                        continue;
+                    float *px = C + 3 * (size_t)sh->epix[e];
+                    gi_vec3 sum = gi_scale(gi_v3p(px), (float)(NE + 1));
+                    for (int j = 0; j < GI_SHADE_XN; j++)
+                        sum = gi_add(sum, L[k2++]);
+                    gi_v3store(px, gi_scale(sum, 1.0f / (float)(NE + 1 + GI_SHADE_XN)));
+                }
             }
         }
 #pragma omp single
@@ -1273,8 +1410,9 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
     gi_verbose("light %zu: rows %.1f ms, edge pixels %.1f ms, shadow edges %.1f ms", l, 1e3 * (tp[0] - tp0),
                1e3 * (tp[1] - tp[0]), 1e3 * (tp[2] - tp[1]));
     if (ec)
-        gi_verbose("light %zu: %zu of %zu edge pixels kept their centre sample (contrast below %.3g)", l, nskip,
-                   sh->nedge, tau);
+        gi_verbose("light %zu: %zu of %zu edge pixels kept their centre sample (contrast below %.3g), %zu refined "
+                   "(above %.3g; %zu of them found their %d samples now)",
+                   l, nskip, sh->nedge, tau, nref, tau_ref, nnew, GI_SHADE_XN);
     return fail;
 }
 

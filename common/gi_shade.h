@@ -34,6 +34,9 @@ typedef struct gi_shade_opts {
                            material borders) and hard shadow edges get aa x aa samples
                            (odd; 1: off; 0, the default: 3 from 200k pixels up, 5 from
                            20k, 7 below) */
+    int edge_refine;    /* 1: edge pixels whose samples see a strong contrast of a point,
+                           spot or directional light's irradiance get 16 more samples of
+                           it (default 0) */
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;

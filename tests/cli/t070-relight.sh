@@ -118,6 +118,19 @@ for f in base moved lamp blue-wall; do
   "$GC" diff "$TMP/nc/$f.exr" "$O/$f.exr" >"$TMP/stdout" 2>/dev/null
   check "$f: cached and fresh direct light give the same pixels (rms=$(val rms))" [ "$(val rms)" = 0 ]
 done
+# --edge-refine finds its extra samples when a light first needs them: the
+# frames still do not depend on what came before
+expect_success "--edge-refine, cached" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/er" --aa 3 --edge-refine -q
+expect_success "--edge-refine, cache off" \
+  env GI_RELIGHT_NO_CACHE=1 "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/ernc" --aa 3 --edge-refine -q
+for f in base moved lamp blue-wall; do
+  "$GC" diff "$TMP/ernc/$f.exr" "$TMP/er/$f.exr" >"$TMP/stdout" 2>/dev/null
+  check "--edge-refine $f: cached and fresh give the same pixels (rms=$(val rms))" [ "$(val rms)" = 0 ]
+done
+expect_success "--edge-refine, frame lamp alone" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/er1" --aa 3 --edge-refine \
+  --frames lamp -q
+"$GC" diff "$TMP/er1/lamp.exr" "$TMP/er/lamp.exr" >"$TMP/stdout" 2>/dev/null
+check "--edge-refine lamp alone is the same as after the other frames (rms=$(val rms))" [ "$(val rms)" = 0 ]
 expect_success "--frames lamp" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/fn" --frames lamp -q
 check "--frames lamp writes lamp.exr only" [ "$(ls "$TMP/fn")" = lamp.exr ]
 expect_success "--frames 3 (an index)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/f3" --frames 3 -q
