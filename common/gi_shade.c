@@ -494,6 +494,23 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
     o->valid = 1;
 }
 
+/* The surface an Embree camera ray through (fx, fy) finds, without texture
+ * filtering or weights (the callers take those from neighbouring samples
+ * first). Returns o->valid; hit: what the ray hit. */
+static int camera_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, float fx, float fy, float step,
+                         ssurf *o, gi_hit *hit)
+{
+    o->valid = 0;
+    o->npairs = 0;
+    o->tsurf = INFINITY;
+    gi_vec3 ro, rd;
+    gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
+    if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, hit))
+        return 0;
+    fill_sample(sh, cam, w, h, hit->tri, hit->u, hit->v, fx, fy, step, 0, 0, o);
+    return o->valid;
+}
+
 /* 1 if the samples of two neighbouring pixels see different surfaces: one
  * sees nothing, other materials, a crease (shading normals > ~18 deg apart)
  * or a depth step (b off a's plane by more than 4 pixel footprints). */
@@ -649,16 +666,8 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 float fy = (float)y + ((float)(c / aa) + gi_rng_float(&r)) * estep;
                 sh->esrc[e * (size_t)ne + (size_t)j] = UINT32_MAX;
                 ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j++];
-                o->valid = 0;
-                o->npairs = 0;
-                o->tsurf = INFINITY;
-                gi_vec3 ro, rd;
-                gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
                 gi_hit hit;
-                if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, &hit))
-                    continue;
-                fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, estep, 0, 0, o);
-                if (!o->valid)
+                if (!camera_sample(sh, cam, w, h, fx, fy, estep, o, &hit))
                     continue;
                 /* the texel (filtered over its pixel) and interpolation weights
                  * of the centre's or a neighbour's sample on the same surface;
@@ -1138,16 +1147,8 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
         ssurf *o = &x[j];
         float fx = (float)px + ((float)(j % GI_SHADE_XK) + gi_rng_float(&r)) * step;
         float fy = (float)py + ((float)(j / GI_SHADE_XK) + gi_rng_float(&r)) * step;
-        o->valid = 0;
-        o->npairs = 0;
-        o->tsurf = INFINITY;
-        gi_vec3 ro, rd;
-        gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
         gi_hit hit;
-        if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, &hit))
-            continue;
-        fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, step, 0, 0, o);
-        if (!o->valid)
+        if (!camera_sample(sh, cam, w, h, fx, fy, step, o, &hit))
             continue;
         int reused = 0;
         const ssurf *c0 = &sh->sf[pix];
