@@ -151,8 +151,11 @@ static void row_FG(const gi_texture *t, const double *pre, int row, double x, do
      * G(m P + xf) = G(xf) + m GP + TP (m xf + P m (m - 1) / 2) */
     int mirror = t->wrap_s == GI_WRAP_MIRROR;
     double P = mirror ? 2.0 * w : (double)w;
-    double m = t->wrap_s == GI_WRAP_CLAMP ? 0.0 : floor(x / P);
-    double xf = x - m * P;
+    double m = 0.0, xf = x;
+    if (t->wrap_s != GI_WRAP_CLAMP && !(x >= 0.0 && x < P)) { /* in the first period: no division */
+        m = floor(x / P);
+        xf = x - m * P;
+    }
     int flip = mirror && xf >= (double)w; /* second half of a mirror period */
     double xi = flip ? 2.0 * w - xf : xf;
     int i = (int)xi;
@@ -197,7 +200,7 @@ static int wrap_row(int y, int h, int mode)
 
 /* x extent {min, max} of {s a + t b : s a_y + t b_y = ym, |s|, |t| <= 1/2};
  * {+inf, -inf} when the line misses the parallelogram. */
-static void x_extent(const double a[2], const double b[2], double ym, double out[2])
+static void x_extent(const double a[2], const double b[2], const double inv[2], double ym, double out[2])
 {
     out[0] = INFINITY;
     out[1] = -INFINITY;
@@ -206,7 +209,7 @@ static void x_extent(const double a[2], const double b[2], double ym, double out
         const double *pf = e < 2 ? a : b, *po = e < 2 ? b : a; /* pf's parameter is fixed */
         if (fabs(po[1]) < 1e-12)
             continue;
-        double other = (ym - fixed * pf[1]) / po[1];
+        double other = (ym - fixed * pf[1]) * inv[e < 2 ? 1 : 0];
         if (other < -0.5 - 1e-9 || other > 0.5 + 1e-9)
             continue;
         double xv = fixed * pf[0] + other * po[0];
@@ -239,6 +242,9 @@ static int parallelogram_mean(const gi_texture *t, const double *pre, const doub
             vy[j - 1] = tmp;
         }
     double acc[3] = {0, 0, 0};
+    /* 1 / a_y and 1 / b_y for x_extent: a division there per edge and cut was
+     * most of the filter's time */
+    const double inv[2] = {fabs(a[1]) < 1e-12 ? 0.0 : 1.0 / a[1], fabs(b[1]) < 1e-12 ? 0.0 : 1.0 / b[1]};
     for (double yr = floor(y0); yr < y1; yr += 1.0) {
         int row = wrap_row((int)yr, t->height, t->wrap_t);
         double cuts[6];
@@ -253,11 +259,11 @@ static int parallelogram_mean(const gi_texture *t, const double *pre, const doub
         double xe[6][2], F[6][2][3], G[6][2][3];
         for (int j = 0; j < nc; j++) {
             double yy = cuts[j] - c[1];
-            x_extent(a, b, yy, xe[j]);
+            x_extent(a, b, inv, yy, xe[j]);
             if (!(xe[j][1] >= xe[j][0])) {
                 /* at the parallelogram's top or bottom vertex rounding may
                  * miss it: nudge inside */
-                x_extent(a, b, yy + (j == 0 ? 1e-9 : -1e-9) * (1.0 + fabs(hy)), xe[j]);
+                x_extent(a, b, inv, yy + (j == 0 ? 1e-9 : -1e-9) * (1.0 + fabs(hy)), xe[j]);
                 if (!(xe[j][1] >= xe[j][0]))
                     xe[j][0] = xe[j][1] = 0.5 * (xe[j][0] + xe[j][1]);
                 if (!isfinite(xe[j][0]))
