@@ -36,6 +36,7 @@ void gi_pt_opts_default(gi_pt_opts *o)
     memset(o, 0, sizeof *o);
     o->seed = 1;
     o->max_bounces = -1;
+    o->min_bounces = 0;
     o->threads = 0;
     o->progress = 1;
 }
@@ -244,7 +245,7 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
                 continue;
             int lfront;
             float t = gi_area_light_intersect(l, o, wi, 0.0f, thit, &lfront);
-            if (t > 0.0f && lfront) {
+            if (t > 0.0f && lfront && depth - 1 >= pt->opts.min_bounces) {
                 float lp = gi_area_light_pdf(l, wi, t) * pt->light_prob[i];
                 float wgt = power_heuristic(pdf, lp);
                 L = gi_add(L, gi_scale(gi_mul(beta, gi_v3p(l->color)), l->intensity * wgt));
@@ -267,7 +268,7 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
             nv.ns = nv.ng;
         nv.wo = wo;
         gi_vec3 le = gi_v3p(m->emission);
-        if (gi_maxc(le) > 0.0f) {
+        if (gi_maxc(le) > 0.0f && depth - 1 >= pt->opts.min_bounces) {
             float ep = gi_emit_pdf(pt->emit, sf.tri, wi, h.t);
             float wgt = power_heuristic(pdf, ep);
             L = gi_add(L, gi_scale(gi_mul(beta, le), wgt));
@@ -277,7 +278,8 @@ static gi_vec3 trace_from(const gi_pt *pt, vertex v, gi_vec3 beta, int depth, gi
         float base[3];
         gi_scene_base_color(s, m, sf.uv0, sf.uv1, base);
         gi_bsdf_init(&nv.bsdf, m, gi_v3p(base));
-        L = gi_add(L, gi_mul(beta, direct_light(pt, &nv, rng)));
+        if (depth >= pt->opts.min_bounces)
+            L = gi_add(L, gi_mul(beta, direct_light(pt, &nv, rng)));
         v = nv;
     }
     return L;
@@ -296,7 +298,7 @@ gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_sampler *rng)
             continue;
         int lfront;
         float t = gi_area_light_intersect(l, o, d, 0.0f, thit, &lfront);
-        if (t > 0.0f && lfront)
+        if (t > 0.0f && lfront && pt->opts.min_bounces <= 0)
             L = gi_add(L, gi_scale(gi_v3p(l->color), l->intensity));
     }
     if (!hit)
@@ -315,12 +317,13 @@ gi_vec3 gi_pt_radiance(const gi_pt *pt, gi_vec3 o, gi_vec3 d, gi_sampler *rng)
     if (gi_dot(v.ns, wo) <= 0.0f)
         v.ns = v.ng;
     v.wo = wo;
-    if (front || m->double_sided)
+    if ((front || m->double_sided) && pt->opts.min_bounces <= 0)
         L = gi_add(L, gi_v3p(m->emission));
     float base[3];
     gi_scene_base_color(pt->s, m, sf.uv0, sf.uv1, base);
     gi_bsdf_init(&v.bsdf, m, gi_v3p(base));
-    L = gi_add(L, direct_light(pt, &v, rng));
+    if (pt->opts.min_bounces <= 0)
+        L = gi_add(L, direct_light(pt, &v, rng));
     L = gi_add(L, trace_from(pt, v, gi_v3(1.0f, 1.0f, 1.0f), 0, rng));
     return L;
 }
@@ -333,7 +336,7 @@ gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_sampler *rng)
     v.ng = v.ns = gi_norm(n);
     v.wo = v.ns;
     gi_bsdf_lambert(&v.bsdf, gi_v3(1.0f, 1.0f, 1.0f));
-    gi_vec3 L = direct_light(pt, &v, rng);
+    gi_vec3 L = pt->opts.min_bounces <= 0 ? direct_light(pt, &v, rng) : gi_v3(0.0f, 0.0f, 0.0f);
     L = gi_add(L, trace_from(pt, v, gi_v3(1.0f, 1.0f, 1.0f), 0, rng));
     return gi_scale(L, GI_PIf);
 }

@@ -28,6 +28,8 @@ extern "C" {
 typedef struct gi_pt_opts {
     uint64_t seed;
     int max_bounces;     /* < 0: unlimited (Russian roulette only); 0: direct light only */
+    int min_bounces;     /* leave out light that bounced fewer times (0: keep all; 1: indirect
+                            light only, what gi-relight's gathering points estimate) */
     int threads;         /* 0: all cores */
     int progress;        /* report progress on stderr */
 } gi_pt_opts;

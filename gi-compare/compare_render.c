@@ -71,7 +71,7 @@ static int job_tracer(job *j, const gi_pt_opts *po, gi_status *st)
                      j->frame.num_materials, po, &j->pt, st);
 }
 
-enum { OPT_SPP = 256, OPT_TIME, OPT_FRAME, OPT_SEED, OPT_MAXB, OPT_POINTS, OPT_SIZE };
+enum { OPT_SPP = 256, OPT_TIME, OPT_FRAME, OPT_SEED, OPT_MAXB, OPT_MINB, OPT_POINTS, OPT_SIZE };
 
 static void render_help(void)
 {
@@ -84,6 +84,8 @@ static void render_help(void)
            "  --spp N                samples per pixel (default 64)\n"
            "  --time SECONDS         stop after the pass that crosses this budget\n"
            "  --max-bounces K        cap the path length (default: none, Russian roulette)\n"
+           "  --min-bounces K        leave out light that bounced fewer than K times before the\n"
+           "                         visible surface (default 0; 1: indirect light only)\n"
            "  --size WxH             override the frame's resolution\n"
            "  -s, --seed S           random seed (default 1)\n"
            "  -j, --threads T        threads (default: all cores; the result does not depend on it)\n"
@@ -97,7 +99,7 @@ int compare_render_main(int argc, char **argv)
         {"spp", required_argument, 0, OPT_SPP}, {"time", required_argument, 0, OPT_TIME},
         {"frame", required_argument, 0, OPT_FRAME}, {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'}, {"max-bounces", required_argument, 0, OPT_MAXB},
-        {"size", required_argument, 0, OPT_SIZE}, {"quiet", no_argument, 0, 'q'},
+        {"min-bounces", required_argument, 0, OPT_MINB}, {"size", required_argument, 0, OPT_SIZE}, {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},       {0, 0, 0, 0}};
     job j;
     memset(&j, 0, sizeof j);
@@ -118,6 +120,7 @@ int compare_render_main(int argc, char **argv)
         case 's': po.seed = gi_opt_u64("--seed", optarg); break;
         case 'j': po.threads = gi_opt_threads(optarg); break;
         case OPT_MAXB: po.max_bounces = (int)gi_opt_long("--max-bounces", optarg, 0, 1 << 20); break;
+        case OPT_MINB: po.min_bounces = (int)gi_opt_long("--min-bounces", optarg, 0, 1 << 20); break;
         case OPT_SIZE:
             if (sscanf(optarg, "%dx%d", &sw, &sh) != 2 || sw < 1 || sh < 1 || sw > 16384 || sh > 16384)
                 gi_usage_error("--size: expected WxH such as 640x480, got '%s'", optarg);
@@ -127,6 +130,9 @@ int compare_render_main(int argc, char **argv)
         default: gi_usage_error("bad option");
         }
     }
+    if (po.max_bounces >= 0 && po.min_bounces > po.max_bounces)
+        gi_usage_error("--min-bounces %d is above --max-bounces %d: no light would be left", po.min_bounces,
+                       po.max_bounces);
     int npos = argc - optind;
     if (npos < 1 || npos > 2)
         gi_usage_error("expected SCENE [SCRIPT], got %d arguments", npos);
@@ -157,16 +163,17 @@ int compare_render_main(int argc, char **argv)
     gi_pt_render_result res;
     rc = gi_pt_render(j.pt, &j.frame.camera, w, h, spp, budget, img.pixels, &res, &st);
     if (!rc) {
-        char sppbuf[32], secbuf[32], seedbuf[32], hashbuf[32], bouncebuf[32];
+        char sppbuf[32], secbuf[32], seedbuf[32], hashbuf[32], bouncebuf[32], minbbuf[32];
         snprintf(sppbuf, sizeof sppbuf, "%d", res.spp);
         snprintf(secbuf, sizeof secbuf, "%.3f", res.seconds);
         snprintf(seedbuf, sizeof seedbuf, "%llu", (unsigned long long)po.seed);
         snprintf(hashbuf, sizeof hashbuf, "%016llx", (unsigned long long)j.scene->hash);
         snprintf(bouncebuf, sizeof bouncebuf, "%d", po.max_bounces);
+        snprintf(minbbuf, sizeof minbbuf, "%d", po.min_bounces);
         gi_image_meta meta[] = {
             {"tool", "gi-compare render"}, {"spp", sppbuf},          {"seconds", secbuf},
             {"seed", seedbuf},             {"scene_hash", hashbuf},  {"frame", j.frame.name},
-            {"max_bounces", bouncebuf},    {"units", "cd/m^2"},
+            {"max_bounces", bouncebuf},    {"min_bounces", minbbuf}, {"units", "cd/m^2"},
         };
         rc = gi_image_write_exr(out, &img, meta, sizeof meta / sizeof meta[0], &st);
     }
@@ -272,7 +279,8 @@ int compare_sensors_main(int argc, char **argv)
         {"help", no_argument, 0, 'h'},           {"points", required_argument, 0, OPT_POINTS},
         {"spp", required_argument, 0, OPT_SPP},  {"frame", required_argument, 0, OPT_FRAME},
         {"seed", required_argument, 0, 's'},     {"threads", required_argument, 0, 'j'},
-        {"max-bounces", required_argument, 0, OPT_MAXB}, {"quiet", no_argument, 0, 'q'},
+        {"max-bounces", required_argument, 0, OPT_MAXB}, {"min-bounces", required_argument, 0, OPT_MINB},
+        {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},        {0, 0, 0, 0}};
     job j;
     memset(&j, 0, sizeof j);
@@ -294,6 +302,8 @@ int compare_sensors_main(int argc, char **argv)
                    "  --frame N|NAME         frame of the script (default: the first)\n"
                    "  --spp N                samples per point (default 1024)\n"
                    "  --max-bounces K        cap the path length (default: none)\n"
+                   "  --min-bounces K        leave out light that bounced fewer than K times (default 0;\n"
+                   "                         1: the indirect illuminance gi-relight's gathering points hold)\n"
                    "  -s, --seed S / -j, --threads T / -q / -v\n");
             return 0;
         case OPT_POINTS: points = optarg; break;
@@ -302,11 +312,15 @@ int compare_sensors_main(int argc, char **argv)
         case 's': po.seed = gi_opt_u64("--seed", optarg); break;
         case 'j': po.threads = gi_opt_threads(optarg); break;
         case OPT_MAXB: po.max_bounces = (int)gi_opt_long("--max-bounces", optarg, 0, 1 << 20); break;
+        case OPT_MINB: po.min_bounces = (int)gi_opt_long("--min-bounces", optarg, 0, 1 << 20); break;
         case 'q': gi_log_set_verbosity(-1); break;
         case 'v': gi_log_set_verbosity(gi_log_verbosity() + 1); break;
         default: gi_usage_error("bad option");
         }
     }
+    if (po.max_bounces >= 0 && po.min_bounces > po.max_bounces)
+        gi_usage_error("--min-bounces %d is above --max-bounces %d: no light would be left", po.min_bounces,
+                       po.max_bounces);
     int npos = argc - optind;
     if (npos < 1 || npos > 2)
         gi_usage_error("expected SCENE [SCRIPT], got %d arguments", npos);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # t021-compare-sensors.sh - gi-compare sensors on the Cornell box: one
 # "lux stderr" line per point, the inverse-square law for direct light under
-# the point light, full shadow behind a wall, -j independence, and the
+# the point light, full shadow behind a wall, direct + indirect (--max-bounces 0,
+# --min-bounces 1) = the full value, -j independence, and the
 # exit codes and file:line:column messages for bad points files.
 source "$(dirname "$0")/lib.sh"
 GC=$BIN/gi-compare
@@ -58,6 +59,21 @@ expect_success "a script frame: panel (index 2)" \
   --points "$TMP/pts.txt" --spp 64 --max-bounces 0
 check "panel light: the floor point is lit ($(line 1 1))" awk -v e="$(line 1 1)" 'BEGIN { exit !(e > 0) }'
 
+# ---- indirect light only (--min-bounces 1) ------------------------------------------
+# What gi-relight's gathering points estimate: direct + indirect = everything.
+expect_success "sensors, indirect light only (--min-bounces 1)" \
+  "$GC" sensors "$SC" --points "$TMP/pts.txt" --spp 256 -j 2 --min-bounces 1
+ei=$(line 1 1) si=$(line 1 2)
+ef=$(sed -n 1p "$TMP/gi2.txt" | cut -d' ' -f1) sf=$(sed -n 1p "$TMP/gi2.txt" | cut -d' ' -f2)
+check "floor: indirect is positive and below the full value ($ei < $ef)" \
+  awk -v i="$ei" -v f="$ef" 'BEGIN { exit !(i > 0 && i < f) }'
+check "floor: direct + indirect = full within 4 combined stderr ($edirect + $ei vs $ef)" \
+  awk -v d="$edirect" -v i="$ei" -v si="$si" -v f="$ef" -v sf="$sf" \
+      'BEGIN { x = f - d - i; if (x < 0) x = -x; exit !(x <= 4 * sqrt(si * si + sf * sf) + 1e-6 * f) }'
+expect_exit 2 "--min-bounces above --max-bounces exits 2" \
+  "$GC" sensors "$SC" --points "$TMP/pts.txt" --min-bounces 2 --max-bounces 1
+expect_stderr "--min-bounces 2 is above --max-bounces 1" "the conflict is explained"
+
 # ---- script area lights: E = pi L under a near-infinite Lambertian emitter ------
 # A scene of one far-away triangle; a sensor facing up at (10, 0, 10) under
 # 2000 m x 2000 m panels of 1 cd/m^2 emitting down (u x v = -y) 1 m and 2 m above.
@@ -85,6 +101,9 @@ expect_success "two stacked area lights" "$GC" sensors "$TMP/tri.gltf" "$TMP/ab.
   --points "$TMP/up.txt" --spp 8192
 check "stacked area lights add: E = 2 pi L within 4 stderr ($(line 1 1) +- $(line 1 2))" \
   near_pi "$(line 1 1)" "$(line 1 2)" 2
+expect_success "one area light above a lone triangle, indirect only" "$GC" sensors "$TMP/tri.gltf" \
+  "$TMP/a.script" --points "$TMP/up.txt" --spp 1024 --min-bounces 1
+check "nothing bounces back from an open scene: exactly 0 ($(line 1 1) $(line 1 2))" [ "$(line 1 1) $(line 1 2)" = "0 0" ]
 
 # ---- bad points files ------------------------------------------------------------
 : >"$TMP/empty.txt"
