@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "gi_container.h"
 #include "gi_exit.h"
@@ -46,6 +47,9 @@ static void help(void)
            "                          for it, found when first needed (off by default: on Sponza\n"
            "                          0.006 nrmse better, 11-30 ms more for a large light move)\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
+           "  --gpoints               also write OUTDIR/NAME.gpoints: each gathering point's position,\n"
+           "                          normal and indirect illuminance (a points file for\n"
+           "                          gi-compare sensors --min-bounces 1)\n"
            "  -s, --seed S            random seed (default 1)\n"
            "  -j, --threads T         threads (default: all cores)\n"
            "  -q, --quiet / -v, --verbose / -V, --version / -h, --help\n"
@@ -54,7 +58,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS };
 
 static int lights_equal(const gi_light *a, size_t na, const gi_light *b, size_t nb)
 {
@@ -83,6 +87,39 @@ static int write_png(const char *path, const float *rgb, int w, int h, float ev,
     return rc;
 }
 
+/* The gathering points of a frame as a gi-compare sensors points file: one
+ * 'x y z nx ny nz' line each, the irradiance after a comment mark. Written
+ * beside path and renamed, so path is complete or untouched. */
+static int write_gpoints(const char *path, const gi_hvds *h, const float *e, const char *frame, gi_status *st)
+{
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    FILE *f = fopen(tmp, "w");
+    if (!f)
+        return gi_status_errno(st, GI_EXIT_SYSTEM, "%s: cannot create", tmp);
+    fprintf(f, "# gi-relight gathering points of frame '%s': %u points\n"
+               "# x y z (m)  nx ny nz  # E_lux (luminance of the indirect illuminance)  E_r E_g E_b  radius_m  index\n",
+            frame, h->num_gpoints);
+    for (uint32_t i = 0; i < h->num_gpoints; i++) {
+        const gi_gpoint *g = &h->gpoints[i];
+        const float *x = e + 3 * (size_t)i;
+        fprintf(f, "%.7g %.7g %.7g %.6f %.6f %.6f # %.6g %.6g %.6g %.6g %.4g %u\n", g->pos[0], g->pos[1], g->pos[2],
+                g->nrm[0], g->nrm[1], g->nrm[2], gi_luminance(gi_v3p(x)), x[0], x[1], x[2], g->radius, i);
+    }
+    int bad = ferror(f);
+    if (fclose(f) || bad) {
+        int rc = gi_status_errno(st, GI_EXIT_SYSTEM, "%s: write failed", tmp);
+        remove(tmp);
+        return rc;
+    }
+    if (rename(tmp, path)) {
+        int rc = gi_status_errno(st, GI_EXIT_SYSTEM, "%s: cannot rename to %s", tmp, path);
+        remove(tmp);
+        return rc;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     gi_log_init("gi-relight");
@@ -93,11 +130,11 @@ int main(int argc, char **argv)
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA},    {"edge-refine", no_argument, 0, OPT_EREF},
-        {"seed", required_argument, 0, 's'},
+        {"gpoints", no_argument, 0, OPT_GPTS},   {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},        {0, 0, 0, 0}};
     const char *outdir = NULL, *frames = NULL, *timings = NULL;
-    int png = 0, threads = 0, c;
+    int png = 0, gpts = 0, threads = 0, c;
     float ev = 0.0f;
     gi_shade_opts so;
     gi_shade_opts_default(&so);
@@ -119,6 +156,7 @@ int main(int argc, char **argv)
                 gi_usage_error("--aa: expected an odd number (1, 3, 5 or 7), got %d", so.aa);
             break;
         case OPT_EREF: so.edge_refine = 1; break;
+        case OPT_GPTS: gpts = 1; break;
         case OPT_TEXF:
             if (!strcmp(optarg, "on"))
                 so.tex_filter = 1;
@@ -362,6 +400,11 @@ int main(int argc, char **argv)
         snprintf(path, sizeof path, "%s/%s.exr", outdir, fr.name);
         if ((rc = gi_image_write_exr(path, &im, meta, 4, &st)))
             break;
+        if (gpts) {
+            snprintf(path, sizeof path, "%s/%s.gpoints", outdir, fr.name);
+            if ((rc = write_gpoints(path, h, gi_relight_gpoint_irradiance(rl), fr.name, &st)))
+                break;
+        }
         if (png) {
             snprintf(path, sizeof path, "%s/%s.png", outdir, fr.name);
             if ((rc = write_png(path, rgb, fr.width, fr.height, ev, &st)))
