@@ -493,6 +493,9 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         }
     }
     double t4 = gi_now();
+    gi_verbose("photon energies: entry-point rays %.1f ms, entry flux %.1f ms, along the paths %.1f ms; keys %.1f ms, "
+               "gathering points %.1f ms",
+               1e3 * (t0b - t0), 1e3 * (t1 - t0b), 1e3 * (t2 - t1), 1e3 * (t3 - t2), 1e3 * (t4 - t3));
     r->times.entry = t1 - t0;
     r->times.photons = t2 - t1;
     r->times.hvds = t3 - t2;
