@@ -9,6 +9,7 @@
 #include "gi_shade.h"
 
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,6 +36,7 @@
 #ifndef GI_SHADE_EDGE_CONTRAST
 #define GI_SHADE_EDGE_CONTRAST 0.02
 #endif
+#define GI_SHADE_SAA_MAX 0.18f /* largest added lobe variance (specular_aa) */
 #define GI_SHADE_DCACHE 8 /* lights whose direct light is kept per pixel */
 
 typedef struct ssurf {
@@ -46,6 +48,8 @@ typedef struct ssurf {
     uint8_t npairs;
     uint32_t gp[GI_SHADE_K];
     float w[GI_SHADE_K]; /* normalised weights */
+    float nvar;          /* variance of the shading normal over the sample's footprint
+                            (sum over both axes; 0: unknown), for specular anti-aliasing */
 } ssurf;
 
 /* What the splat reads of a sample, packed into one cache line: the ssurf
@@ -458,6 +462,7 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
     o->valid = 0;
     o->npairs = 0;
     o->tsurf = INFINITY;
+    o->nvar = 0.0f;
     gi_hit hit = {0.0f, tri, u, v};
     gi_surface sf;
     gi_rt_surface(sh->rt, &hit, &sf);
@@ -605,6 +610,36 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         float fx = (float)(pix % (size_t)w) + sh->jit[2 * k], fy = (float)(pix / (size_t)w) + sh->jit[2 * k + 1];
         fill_sample(sh, cam, w, h, g->tri - 1, g->u, g->v, fx, fy, step, texf, 1, o);
     }
+    /* normal variance over each sample's footprint, from the neighbouring
+     * samples of its layer on the same surface */
+    {
+        float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
+        float inv = 1.0f / (12.0f * (float)(ss * ss));
+#pragma omp parallel for schedule(static) num_threads(threads)
+        for (size_t i = 0; i < ns; i++) {
+            ssurf *a = &sh->sf[i];
+            if (!a->valid)
+                continue;
+            size_t pix = i % np;
+            int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
+            /* per axis, the next sample on the same surface, else the
+             * previous one; a crease counts (its normals do turn within the
+             * pixel), another material, a depth step or the background not */
+            const ssurf *nb[4] = {x + 1 < w ? a + 1 : NULL, x > 0 ? a - 1 : NULL, y + 1 < h ? a + w : NULL,
+                                  y > 0 ? a - w : NULL};
+            float v = 0.0f;
+            for (int axis = 0; axis < 2; axis++)
+                for (int q = 2 * axis; q < 2 * axis + 2; q++) {
+                    int dc = nb[q] ? discontinuity(a, nb[q], pa) : 1;
+                    if (dc != 0 && dc != 3)
+                        continue;
+                    for (int c = 0; c < 3; c++)
+                        v += (nb[q]->ns[c] - a->ns[c]) * (nb[q]->ns[c] - a->ns[c]);
+                    break;
+                }
+            a->nvar = v * inv;
+        }
+    }
     double tv2 = gi_now();
     if (!(ss == 1 && aa >= 3)) {
         free(sh->eidx); /* NULL: this view has no edge samples */
@@ -699,6 +734,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 }
                 if (!reused)
                     o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
+                o->nvar = sh->sf[pix].nvar * estep * estep;
             }
             /* hard: the pixel's coverage matters whatever the light */
             const ssurf *c0 = &sh->sf[pix];
@@ -864,6 +900,26 @@ static void visible_area_lights(const gi_shade *sh, const gi_camera *cam, int w,
     }
 }
 
+/* Specular anti-aliasing: a glossy lobe evaluated at one point of a pixel
+ * stands for the pixel's average over the normals it covers. The lobe
+ * cos^n is about a Gaussian of variance 1/n per axis around the mirror
+ * direction, which turns twice as fast as the normal: over a footprint whose
+ * normal varies with total variance nvar (both axes, nvar / 2 each), the
+ * average is the lobe widened to 1/n + 2 nvar per axis (as Kaplanyan et al.
+ * 2016 do for microfacet lobes). The widening is capped at 0.18 (Tokuyoshi
+ * and Kaplanyan 2019), where a crease rather than a curved surface spans the
+ * pixel. The reference path tracer averages its samples over the pixel
+ * instead. Without this a sharp highlight smaller than a pixel is missed by
+ * the pixel's one sample or hit at its peak: on a metal sphere at 64 x 48
+ * (t115) nrmse 5.4 and 6.9 against 1024 spp, with it 2.6 and 2.5; a glossy
+ * Suzanne (glTF sample IridescenceSuzanne, 96 x 72) 26.9 -> 3.3. */
+static inline void specular_aa(gi_bsdf *b, float nvar)
+{
+    if (!(nvar > 0.0f) || !(b->exponent > 0.0f) || gi_maxc(b->ks) <= 0.0f)
+        return;
+    b->exponent = 1.0f / (1.0f / b->exponent + fminf(2.0f * nvar, GI_SHADE_SAA_MAX));
+}
+
 /* Shadow rays of one thread, traced in coherent packets: each ray carries the
  * unshadowed contribution it adds to acc[idx] when nothing blocks it. */
 enum { SB_CAP = 2048 };
@@ -907,6 +963,7 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     gi_vec3 p = gi_v3p(sf->p), ng = gi_v3p(sf->ng), nsn = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
     gi_bsdf bs;
     gi_bsdf_init(&bs, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
+    specular_aa(&bs, sf->nvar);
     int nsmp = gi_light_has_area(lt) ? ka * ka : 1;
     gi_rng rng;
     gi_rng_seed(&rng, seed, id, l);
@@ -1084,6 +1141,7 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
     gi_vec3 p = gi_v3p(c->p), ng = gi_v3p(c->ng), eye = gi_v3p(cam->position);
     float pn = gi_dot(gi_sub(p, eye), ng);
     ssurf sub = *c;
+    sub.nvar = c->nvar / (float)(aa * aa);
     gi_rng r;
     gi_rng_seed(&r, 0xed9e, pix, 0);
     b->acc = acc;
@@ -1152,6 +1210,7 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
             continue;
         int reused = 0;
         const ssurf *c0 = &sh->sf[pix];
+        o->nvar = c0->nvar * step * step;
         if (c0->valid && !discontinuous(o, c0, pix_angle)) {
             memcpy(o->texel, c0->texel, sizeof o->texel);
             reused = 1;
