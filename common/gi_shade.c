@@ -88,6 +88,7 @@ struct gi_shade {
     gi_gpixel *px;
     ssurf *sf;
     int pw, ph, pss, ptexf, paa;
+    int want_nvar, pnvar; /* fill_sample computes nvar; the cached view has it */
     /* edge antialiasing (ss == 1): pixel -> edge number (UINT32_MAX: none),
      * edge number -> pixel, and ne samples per edge pixel */
     uint32_t *eidx, *epix;
@@ -451,6 +452,53 @@ static int same_camera(const gi_camera *a, const gi_camera *b)
            !memcmp(a->up, b->up, sizeof a->up) && a->yfov == b->yfov && a->znear == b->znear && a->zfar == b->zfar;
 }
 
+/* Variance of the shading normal over a sample's footprint (sum over both
+ * axes), for specular_aa: the interpolated vertex normal's change between
+ * the sample point p and where the rays dx, dy through the neighbouring
+ * sample positions meet the triangle's plane, taken as linear across the
+ * footprint (a box: variance 1/12 of the change squared). 0 on a flat-shaded
+ * triangle; a crease between triangles is the edge samples' business. */
+static float footprint_nvar(const gi_scene *s, uint32_t tri, gi_vec3 eye, gi_vec3 p, gi_vec3 dx, gi_vec3 dy)
+{
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    gi_vec3 n0 = gi_v3p(s->normals + 3 * (size_t)ix[0]), n1 = gi_v3p(s->normals + 3 * (size_t)ix[1]),
+            n2 = gi_v3p(s->normals + 3 * (size_t)ix[2]);
+    gi_vec3 dn1 = gi_sub(n1, n0), dn2 = gi_sub(n2, n0);
+    if (gi_dot(dn1, dn1) + gi_dot(dn2, dn2) < 1e-12f)
+        return 0.0f;
+    gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+    gi_vec3 e1 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), p0);
+    gi_vec3 e2 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), p0);
+    float d00 = gi_dot(e1, e1), d01 = gi_dot(e1, e2), d11 = gi_dot(e2, e2), den = d00 * d11 - d01 * d01;
+    gi_vec3 ng = gi_cross(e1, e2);
+    if (!(den > 0.0f))
+        return 0.0f;
+    /* the interpolated normal at p, unnormalised, and its length */
+    gi_vec3 dp = gi_sub(p, p0);
+    float b1 = (d11 * gi_dot(dp, e1) - d01 * gi_dot(dp, e2)) / den;
+    float b2 = (d00 * gi_dot(dp, e2) - d01 * gi_dot(dp, e1)) / den;
+    gi_vec3 N = gi_add(n0, gi_add(gi_scale(dn1, b1), gi_scale(dn2, b2)));
+    float len = gi_len(N);
+    if (!(len > 1e-12f))
+        return 0.0f;
+    gi_vec3 nn = gi_scale(N, 1.0f / len);
+    float pn = gi_dot(gi_sub(p, eye), ng), v = 0.0f;
+    gi_vec3 dirs[2] = {dx, dy};
+    for (int k = 0; k < 2; k++) {
+        float dn = gi_dot(dirs[k], ng), t = pn / dn;
+        if (!(fabsf(dn) > 1e-12f) || !(t > 0.0f) || !isfinite(t))
+            continue;
+        gi_vec3 q = gi_sub(gi_add(eye, gi_scale(dirs[k], t)), p);
+        float c1 = (d11 * gi_dot(q, e1) - d01 * gi_dot(q, e2)) / den;
+        float c2 = (d00 * gi_dot(q, e2) - d01 * gi_dot(q, e1)) / den;
+        gi_vec3 dN = gi_add(gi_scale(dn1, c1), gi_scale(dn2, c2));
+        /* change of the normalised normal: the part of dN across it, / |N| */
+        gi_vec3 dt = gi_scale(gi_sub(dN, gi_scale(nn, gi_dot(dN, nn))), 1.0f / len);
+        v += gi_dot(dt, dt);
+    }
+    return v / 12.0f;
+}
+
 /* Fill the cached record of a sample at pixel position (fx, fy) that sees
  * triangle tri (0-based) at barycentrics (u, v); step: the sample's footprint
  * in pixels (for the texture filter). */
@@ -483,11 +531,17 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
     gi_v3store(o->ns, nsn);
     gi_v3store(o->wo, wo);
     /* texel = base colour with a unit factor, averaged over the sample's
-     * footprint like the reference's box-filtered pixel */
-    if (texf && m->base_color_tex >= 0) {
-        gi_vec3 ro, dx, dy;
+     * footprint like the reference's box-filtered pixel; the spread of the
+     * shading normal over the same footprint */
+    gi_vec3 ro, dx, dy;
+    int tex = texf && m->base_color_tex >= 0;
+    if (tex || sh->want_nvar) {
         gi_camera_ray(cam, w, h, fx + step, fy, &ro, &dx);
         gi_camera_ray(cam, w, h, fx, fy + step, &ro, &dy);
+    }
+    if (sh->want_nvar)
+        o->nvar = footprint_nvar(s, sf.tri, eye, sf.p, dx, dy);
+    if (tex) {
         gi_texfilter_texel(sh->tf, m, sf.tri, eye, sf.p, dx, dy, o->texel);
     } else {
         gi_material unit = *m;
@@ -610,36 +664,6 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         float fx = (float)(pix % (size_t)w) + sh->jit[2 * k], fy = (float)(pix / (size_t)w) + sh->jit[2 * k + 1];
         fill_sample(sh, cam, w, h, g->tri - 1, g->u, g->v, fx, fy, step, texf, 1, o);
     }
-    /* normal variance over each sample's footprint, from the neighbouring
-     * samples of its layer on the same surface */
-    {
-        float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
-        float inv = 1.0f / (12.0f * (float)(ss * ss));
-#pragma omp parallel for schedule(static) num_threads(threads)
-        for (size_t i = 0; i < ns; i++) {
-            ssurf *a = &sh->sf[i];
-            if (!a->valid)
-                continue;
-            size_t pix = i % np;
-            int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
-            /* per axis, the next sample on the same surface, else the
-             * previous one; a crease counts (its normals do turn within the
-             * pixel), another material, a depth step or the background not */
-            const ssurf *nb[4] = {x + 1 < w ? a + 1 : NULL, x > 0 ? a - 1 : NULL, y + 1 < h ? a + w : NULL,
-                                  y > 0 ? a - w : NULL};
-            float v = 0.0f;
-            for (int axis = 0; axis < 2; axis++)
-                for (int q = 2 * axis; q < 2 * axis + 2; q++) {
-                    int dc = nb[q] ? discontinuity(a, nb[q], pa) : 1;
-                    if (dc != 0 && dc != 3)
-                        continue;
-                    for (int c = 0; c < 3; c++)
-                        v += (nb[q]->ns[c] - a->ns[c]) * (nb[q]->ns[c] - a->ns[c]);
-                    break;
-                }
-            a->nvar = v * inv;
-        }
-    }
     double tv2 = gi_now();
     if (!(ss == 1 && aa >= 3)) {
         free(sh->eidx); /* NULL: this view has no edge samples */
@@ -734,7 +758,6 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 }
                 if (!reused)
                     o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
-                o->nvar = sh->sf[pix].nvar * estep * estep;
             }
             /* hard: the pixel's coverage matters whatever the light */
             const ssurf *c0 = &sh->sf[pix];
@@ -770,6 +793,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     sh->pss = ss;
     sh->ptexf = texf;
     sh->paa = aa;
+    sh->pnvar = sh->want_nvar;
     sh->pcam = *cam;
     sh->valid = 1;
     sh->view_id++; /* every cached direct light is stale */
@@ -904,15 +928,15 @@ static void visible_area_lights(const gi_shade *sh, const gi_camera *cam, int w,
  * stands for the pixel's average over the normals it covers. The lobe
  * cos^n is about a Gaussian of variance 1/n per axis around the mirror
  * direction, which turns twice as fast as the normal: over a footprint whose
- * normal varies with total variance nvar (both axes, nvar / 2 each), the
- * average is the lobe widened to 1/n + 2 nvar per axis (as Kaplanyan et al.
- * 2016 do for microfacet lobes). The widening is capped at 0.18 (Tokuyoshi
- * and Kaplanyan 2019), where a crease rather than a curved surface spans the
- * pixel. The reference path tracer averages its samples over the pixel
- * instead. Without this a sharp highlight smaller than a pixel is missed by
- * the pixel's one sample or hit at its peak: on a metal sphere at 64 x 48
- * (t115) nrmse 5.4 and 6.9 against 1024 spp, with it 2.6 and 2.5; a glossy
- * Suzanne (glTF sample IridescenceSuzanne, 96 x 72) 26.9 -> 3.3. */
+ * normal varies with total variance nvar (both axes, nvar / 2 each;
+ * footprint_nvar), the average is the lobe widened to 1/n + 2 nvar per axis
+ * (as Kaplanyan et al. 2016 do for microfacet lobes). The widening is capped
+ * at 0.18 (Tokuyoshi and Kaplanyan 2019) for footprints that span a strongly
+ * curved patch. The reference path tracer averages its samples over the
+ * pixel instead. Without this a sharp highlight smaller than a pixel is
+ * missed by the pixel's one sample or hit at its peak: on a metal sphere at
+ * 64 x 48 (t115) nrmse 5.4 and 6.9 against 1024 spp, with it 2.7 and 2.4; a
+ * glossy Suzanne (glTF sample IridescenceSuzanne, 96 x 72) 26.9 -> 2.7. */
 static inline void specular_aa(gi_bsdf *b, float nvar)
 {
     if (!(nvar > 0.0f) || !(b->exponent > 0.0f) || gi_maxc(b->ks) <= 0.0f)
@@ -1210,7 +1234,6 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
             continue;
         int reused = 0;
         const ssurf *c0 = &sh->sf[pix];
-        o->nvar = c0->nvar * step * step;
         if (c0->valid && !discontinuous(o, c0, pix_angle)) {
             memcpy(o->texel, c0->texel, sizeof o->texel);
             reused = 1;
@@ -1492,8 +1515,14 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     int threads = o->threads > 0 ? o->threads : omp_get_num_procs();
     double t0 = gi_now();
     int texf = o->tex_filter != 0;
+    /* the normals' spread over each sample's footprint (specular_aa) is
+     * found only while some material has a glossy lobe */
+    int glossy_now = 0;
+    for (size_t m = 0; m < sh->s->num_materials && !glossy_now; m++)
+        glossy_now = gi_brdf_exponent(mats[m].roughness) >= 1.0f;
     if (!sh->valid || sh->pw != w || sh->ph != h || sh->pss != ss || sh->ptexf != texf || sh->paa != aa ||
-        !same_camera(&sh->pcam, cam)) {
+        !same_camera(&sh->pcam, cam) || (glossy_now && !sh->pnvar)) {
+        sh->want_nvar = glossy_now;
         int rc = prepare_view(sh, gb, cam, w, h, ss, texf, aa, threads, st);
         if (rc)
             return rc;
