@@ -7,6 +7,7 @@
 
 #define GI_TEXF_MAX_LEVELS 24
 #define GI_TEXF_NMAX 8 /* lookups per footprint axis, at most */
+#define GI_TEXF_CLAMP_ROWS 128 /* rows at level 0 for a footprint beyond a clamped edge */
 
 typedef struct pyramid {
     int levels;
@@ -321,6 +322,21 @@ void gi_texfilter_box(const gi_texfilter *f, int tex, const float uv[2], const f
          * Sponza (sun frame, 640x480): coarser levels, or bilinear lookups
          * at a level chosen by the footprint, blur enough to cost 0.01-0.03
          * in nrmse. */
+        /* beyond a clamped edge the level-0 edge texels continue; a coarser
+         * level's edge texel averages them with the texels inside (a thin
+         * dark border: 0.87 where the clamp gives 0.75), so a footprint that
+         * leaves the texture on a clamped axis is taken at level 0, up to
+         * GI_TEXF_CLAMP_ROWS rows (such footprints are rare) */
+        float hu = 0.5f * (fabsf(a[0]) + fabsf(b[0])), hv = 0.5f * (fabsf(a[1]) + fabsf(b[1]));
+        int out = (t0->wrap_s == GI_WRAP_CLAMP && (uv[0] - hu < 0.0f || uv[0] + hu > 1.0f)) ||
+                  (t0->wrap_t == GI_WRAP_CLAMP && (uv[1] - hv < 0.0f || uv[1] + hv > 1.0f));
+        if (out) {
+            double c2[2] = {(double)uv[0] * t0->width, (double)uv[1] * t0->height};
+            double a2[2] = {(double)a[0] * t0->width, (double)a[1] * t0->height};
+            double b2[2] = {(double)b[0] * t0->width, (double)b[1] * t0->height};
+            if (parallelogram_mean(t0, p->pre[0], c2, a2, b2, GI_TEXF_CLAMP_ROWS, rgba))
+                return;
+        }
         for (int l = 0; l < p->levels; l++) {
             const gi_texture *tl = &p->lv[l];
             double c2[2] = {(double)uv[0] * tl->width, (double)uv[1] * tl->height};

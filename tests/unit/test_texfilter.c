@@ -228,6 +228,42 @@ static void test_parallelogram_exact(void **state)
     assert_true(n_exact > 60 && n_grid > 20); /* both paths were exercised */
 }
 
+/* A texture with a one-texel dark frame, clamped: footprints of 10 to 40
+ * texels reaching beyond the edge see the frame's texels continue there. A
+ * coarser level would average the frame with the texels inside it (0.6
+ * where the clamp gives 0.2); the filter takes such footprints at level 0
+ * and is exact (the texture taken constant per texel). */
+static float v_frame(int x, int y) { return (x == 0 || y == 0 || x == 63 || y == 47) ? 0.2f : 1.0f; }
+
+static void test_clamp_beyond_edge(void **state)
+{
+    (void)state;
+    gi_scene *s = make_scene(64, 48, v_frame, GI_WRAP_CLAMP, 0);
+    gi_texfilter *f = filter_of(s);
+    gi_texture tn = s->textures[0];
+    tn.nearest = 1;
+    const float centres[5][2] = {{1.2f, 0.5f}, {-0.25f, 0.4f}, {0.5f, 1.3f}, {0.45f, -0.2f}, {1.05f, 1.1f}};
+    for (int i = 0; i < 5; i++)
+        for (int k = 0; k < 3; k++) {
+            float la = 10.0f + 15.0f * (float)k;
+            float a[2] = {la / 64.0f, 0.3f * la / 48.0f}, b[2] = {-0.2f * la / 64.0f, la / 48.0f}, got[4];
+            gi_texfilter_box(f, 0, centres[i], a, b, got);
+            double ref = 0.0;
+            const int N = 400;
+            for (int j = 0; j < N; j++)
+                for (int q = 0; q < N; q++) {
+                    float ss = ((float)q + 0.5f) / (float)N - 0.5f, tt = ((float)j + 0.5f) / (float)N - 0.5f, v[4];
+                    gi_texture_sample(&tn, centres[i][0] + ss * a[0] + tt * b[0],
+                                      centres[i][1] + ss * a[1] + tt * b[1], v);
+                    ref += v[0];
+                }
+            ref /= (double)N * N;
+            assert_float_equal(got[0], (float)ref, 0.003f);
+        }
+    gi_texfilter_free(f);
+    gi_scene_free(s);
+}
+
 /* The footprint from camera rays: a quad 2 m wide with a 512-texel checker,
  * seen head-on from distance D through a pixel that spans D * 2 tan(fov/2) / h
  * metres. Close (a quarter texel per pixel) the texel is (nearly) the point
@@ -273,6 +309,7 @@ int main(void)
         cmocka_unit_test(test_anisotropic),
         cmocka_unit_test(test_ramp_centre),
         cmocka_unit_test(test_parallelogram_exact),
+        cmocka_unit_test(test_clamp_beyond_edge),
         cmocka_unit_test(test_texel_from_camera),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
