@@ -2,6 +2,7 @@
  * HVDS keys -> gathering points. */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_relight.h"
+#include "gi_mem.h"
 
 #include <omp.h>
 #include <stdlib.h>
@@ -297,8 +298,8 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             }
             light_slot *sl = &r->slots[found];
             if (!sl->e) {
-                sl->e = malloc((3 * (size_t)g->num_entries + 3) * sizeof *sl->e);
-                sl->dir = malloc((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir);
+                sl->e = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->e);
+                sl->dir = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir);
                 if (!sl->e || !sl->dir)
                     return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
             }

@@ -7,6 +7,7 @@
  * weights: the "splat" of a light or material change costs a few reads. */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_shade.h"
+#include "gi_mem.h"
 
 #include <omp.h>
 #include <stdio.h>
@@ -1613,9 +1614,9 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                 free(d->rgb);
                 free(d->vis);
                 free(d->ec);
-                d->rgb = malloc(np * 3 * sizeof *d->rgb);
-                d->vis = malloc(np);
-                d->ec = malloc(np * sizeof *d->ec);
+                d->rgb = gi_alloc_large(np * 3 * sizeof *d->rgb);
+                d->vis = gi_alloc_large(np);
+                d->ec = gi_alloc_large(np * sizeof *d->ec);
                 d->np = np;
             }
             if (!d->rgb || !d->vis || !d->ec) {

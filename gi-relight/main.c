@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -290,6 +291,8 @@ int main(int argc, char **argv)
     memset(&last_cam, 0, sizeof last_cam);
     int have_last = 0;
     for (size_t i = first; i <= last && !rc; i++) {
+        struct rusage ru0;
+        getrusage(RUSAGE_SELF, &ru0);
         double f0 = gi_now();
         if ((rc = gi_script_frame(sc, s, i, &fr, &st)))
             break;
@@ -392,6 +395,9 @@ int main(int argc, char **argv)
                                  &st)))
             break;
         double f1 = gi_now();
+        struct rusage ru1;
+        getrusage(RUSAGE_SELF, &ru1);
+        gi_verbose("frame %zu: %ld page faults", i, ru1.ru_minflt - ru0.ru_minflt);
         char path[4096];
         gi_image im = {fr.width, fr.height, 3, rgb};
         char secs[32];
