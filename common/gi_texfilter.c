@@ -1,5 +1,6 @@
 /* gi_texfilter.c - footprint-filtered base-colour textures (see gi_texfilter.h). */
 #include "gi_texfilter.h"
+#include "gi_mem.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -42,7 +43,7 @@ void gi_texfilter_free(gi_texfilter *f)
  * parents; an odd last row or column is averaged with itself. */
 static float *halve(const gi_texture *src, int w2, int h2)
 {
-    float *o = malloc((size_t)w2 * (size_t)h2 * 4 * sizeof *o);
+    float *o = gi_alloc_large((size_t)w2 * (size_t)h2 * 4 * sizeof *o);
     if (!o)
         return NULL;
     const int w = src->width, h = src->height;
@@ -100,7 +101,7 @@ int gi_texfilter_new(const gi_scene *s, gi_texfilter **out, gi_status *st)
         for (int l = 0; l < p->levels; l++) {
             const gi_texture *lt = &p->lv[l];
             size_t w1 = (size_t)lt->width + 1;
-            double *pre = malloc(w1 * (size_t)lt->height * 6 * sizeof *pre);
+            double *pre = gi_alloc_large(w1 * (size_t)lt->height * 6 * sizeof *pre);
             if (!pre) {
                 gi_texfilter_free(f);
                 return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the row sums of texture %zu", t);
