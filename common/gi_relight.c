@@ -22,9 +22,10 @@
 typedef struct light_slot {
     gi_light light;
     float *e;          /* 3 per entry */
-    float *dir;        /* 3 per entry */
+    float *dir;        /* 3 per entry, only while some material is glossy (has_dir) */
     uint64_t last_use; /* frame counter, for eviction */
     int used;
+    int has_dir;
 } light_slot;
 
 struct gi_relight {
@@ -270,6 +271,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     size_t lid[GI_RELIGHT_SLOTS];
     int nused = 0;
     int cacheable = 1;
+    const int need_dir = r->any_glossy; /* glossy entries weigh each light by its direction */
     {
         size_t ne = 0;
         for (size_t l = 0; l < n; l++)
@@ -283,6 +285,13 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         for (int k = 0; k < GI_RELIGHT_SLOTS && found < 0; k++)
             if (r->slots[k].used && !memcmp(&r->slots[k].light, &lights[l], sizeof lights[l]))
                 found = k;
+        if (found >= 0 && need_dir && !r->slots[found].has_dir) {
+            /* cached while every material was diffuse: trace it again for the directions */
+            light_slot *sl = &r->slots[found];
+            if (!sl->dir && !(sl->dir = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir)))
+                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
+            sl->used = 2;
+        }
         if (found < 0) {
             /* a free slot, or the least recently used one not needed by this frame */
             uint64_t oldest = UINT64_MAX;
@@ -297,12 +306,15 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                 }
             }
             light_slot *sl = &r->slots[found];
-            if (!sl->e) {
+            /* the directions only while some material is glossy: a diffuse
+             * entry needs none, and a new buffer costs its first touch (on
+             * virtual machines ~1 ms per MB, as much as the rays) */
+            if (!sl->e)
                 sl->e = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->e);
+            if (need_dir && !sl->dir)
                 sl->dir = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir);
-                if (!sl->e || !sl->dir)
-                    return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
-            }
+            if (!sl->e || (need_dir && !sl->dir))
+                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
             sl->light = lights[l];
             sl->used = 2; /* 2: to be traced */
         }
@@ -377,7 +389,8 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                 }
                 for (uint32_t e = e0; e < e1; e++) {
                     gi_v3store(sl->e + 3 * (size_t)e, gi_scale(acc[e - e0], 1.0f / (float)ns));
-                    gi_v3store(sl->dir + 3 * (size_t)e, gi_norm(dacc[e - e0]));
+                    if (need_dir)
+                        gi_v3store(sl->dir + 3 * (size_t)e, gi_norm(dacc[e - e0]));
                 }
             }
             free(ro);
@@ -392,6 +405,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         if (fail)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory tracing light '%s'", L->name);
         sl->used = 1;
+        sl->has_dir = need_dir;
     }
     double t0b = gi_now();
     /* 1b. flux leaving each entry point along its path: Phi_0 = dA sum_l f(w_l, w_out) E_l cos_o / pdf */
