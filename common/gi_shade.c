@@ -1570,20 +1570,21 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         sh->npmats = sh->pmats ? nm : 0;
     }
     free(mchanged);
-    /* pass 1: emission, then each light's direct light from its cache or
-     * computed (shadow rays as packets) */
+    /* pass 1: emission (light that reaches the camera without a bounce:
+     * part of the direct light), then each light's direct light from its
+     * cache or computed (shadow rays as packets) */
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t pix = 0; pix < np; pix++) {
         gi_vec3 sum = gi_v3(0, 0, 0);
         int count = S;
-        for (int k = 0; k < S; k++) {
+        for (int k = 0; k < S && o->direct; k++) {
             const ssurf *sf = &sh->sf[(size_t)k * np + pix];
             if (sf->valid)
                 sum = gi_add(sum, gi_v3p(mats[sf->material].emission));
         }
         uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
         if (e != UINT32_MAX) {
-            for (int j = 0; j < NE; j++) {
+            for (int j = 0; j < NE && o->direct; j++) {
                 const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
                 if (sf->valid)
                     sum = gi_add(sum, gi_v3p(mats[sf->material].emission));
@@ -1648,7 +1649,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     free(mask);
     if (fail)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for direct light");
-    if (has_area)
+    if (has_area && o->direct) /* light seen without a bounce: part of the direct light */
         visible_area_lights(sh, cam, w, h, lights, num_lights, rgb, threads);
     double t2 = gi_now();
     /* pass 2: indirect light from the cached interpolation weights: each

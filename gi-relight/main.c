@@ -48,6 +48,8 @@ static void help(void)
            "                          for it, found when first needed (off by default: on Sponza\n"
            "                          0.006 nrmse better, 11-30 ms more for a large light move)\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
+           "  --only direct|indirect  render one part of the light: direct (compare with gi-compare\n"
+           "                          render --max-bounces 0) or indirect (--min-bounces 1)\n"
            "  --gpoints               also write OUTDIR/NAME.gpoints: each gathering point's position,\n"
            "                          normal and indirect illuminance (a points file for\n"
            "                          gi-compare sensors --min-bounces 1)\n"
@@ -59,7 +61,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS, OPT_ONLY };
 
 static int lights_equal(const gi_light *a, size_t na, const gi_light *b, size_t nb)
 {
@@ -131,7 +133,8 @@ int main(int argc, char **argv)
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA},    {"edge-refine", no_argument, 0, OPT_EREF},
-        {"gpoints", no_argument, 0, OPT_GPTS},   {"seed", required_argument, 0, 's'},
+        {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
+        {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},        {0, 0, 0, 0}};
     const char *outdir = NULL, *frames = NULL, *timings = NULL;
@@ -158,6 +161,14 @@ int main(int argc, char **argv)
             break;
         case OPT_EREF: so.edge_refine = 1; break;
         case OPT_GPTS: gpts = 1; break;
+        case OPT_ONLY:
+            if (!strcmp(optarg, "direct"))
+                so.indirect = 0;
+            else if (!strcmp(optarg, "indirect"))
+                so.direct = 0;
+            else
+                gi_usage_error("--only: expected direct or indirect, got '%s'", optarg);
+            break;
         case OPT_TEXF:
             if (!strcmp(optarg, "on"))
                 so.tex_filter = 1;
