@@ -3,6 +3,7 @@
  * docs/formats.md, section ".gip (gi-precompute)"). */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_gip.h"
+#include "gi_mem.h"
 #include "gi_rt.h"
 
 #include <errno.h>
@@ -183,17 +184,17 @@ gi_gip *gi_gip_new(uint32_t num_entries, uint64_t num_photons)
     size_t n = num_entries, p = (size_t)num_photons;
     g->num_entries = num_entries;
     g->num_photons = num_photons;
-    g->path_start = calloc(n + 1, sizeof *g->path_start);
-    g->entry_dA = calloc(n + 1, sizeof *g->entry_dA);
-    g->entry_base = calloc(3 * n + 1, sizeof *g->entry_base);
-    g->refl = calloc(p + 1, sizeof *g->refl);
-    g->tri = calloc(p + 1, sizeof *g->tri);
-    g->bary = calloc(2 * p + 1, sizeof *g->bary);
-    g->side = calloc(p + 1, sizeof *g->side);
-    g->w_in = calloc(3 * p + 1, sizeof *g->w_in);
-    g->w_out = calloc(3 * p + 1, sizeof *g->w_out);
-    g->pdf = calloc(p + 1, sizeof *g->pdf);
-    g->q = calloc(p + 1, sizeof *g->q);
+    g->path_start = gi_calloc_large(n + 1, sizeof *g->path_start);
+    g->entry_dA = gi_calloc_large(n + 1, sizeof *g->entry_dA);
+    g->entry_base = gi_calloc_large(3 * n + 1, sizeof *g->entry_base);
+    g->refl = gi_calloc_large(p + 1, sizeof *g->refl);
+    g->tri = gi_calloc_large(p + 1, sizeof *g->tri);
+    g->bary = gi_calloc_large(2 * p + 1, sizeof *g->bary);
+    g->side = gi_calloc_large(p + 1, sizeof *g->side);
+    g->w_in = gi_calloc_large(3 * p + 1, sizeof *g->w_in);
+    g->w_out = gi_calloc_large(3 * p + 1, sizeof *g->w_out);
+    g->pdf = gi_calloc_large(p + 1, sizeof *g->pdf);
+    g->q = gi_calloc_large(p + 1, sizeof *g->q);
     if (!g->path_start || !g->entry_dA || !g->entry_base || !g->refl || !g->tri || !g->bary ||
         !g->side || !g->w_in || !g->w_out || !g->pdf || !g->q) {
         gi_gip_free(g);

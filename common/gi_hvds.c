@@ -2,6 +2,7 @@
  * adaptive octree, keys and the photon/ray -> key maps (docs/pipeline.md). */
 #define _POSIX_C_SOURCE 200809L
 #include "gi_hvds.h"
+#include "gi_mem.h"
 
 #include <omp.h>
 #include <stdlib.h>
@@ -1493,9 +1494,9 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         (rc = gi_cursor_check_count(&c, u32, 9, "keys", st)))
         goto fail;
     h->num_keys = u32;
-    h->key_parent = malloc(((size_t)u32 + 1) * sizeof *h->key_parent);
-    h->key_scale = malloc(((size_t)u32 + 1) * sizeof *h->key_scale);
-    h->key_level = malloc((size_t)u32 + 1);
+    h->key_parent = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->key_parent);
+    h->key_scale = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->key_scale);
+    h->key_level = gi_alloc_large((size_t)u32 + 1);
     if (!h->key_parent || !h->key_scale || !h->key_level)
         goto oom;
     for (uint32_t i = 0; i < h->num_keys; i++) {
@@ -1529,7 +1530,7 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         goto fail;
     }
     h->num_photons = u64;
-    h->photon_key = malloc((u64 + 1) * sizeof *h->photon_key);
+    h->photon_key = gi_alloc_large((u64 + 1) * sizeof *h->photon_key);
     if (!h->photon_key)
         goto oom;
     for (uint64_t i = 0; i < u64; i++) {
@@ -1550,8 +1551,8 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         (rc = gi_cursor_check_count(&cg, u32, 6, "gathering pairs", st)))
         goto fail;
     h->num_pairs = u32;
-    h->pair_key = malloc(((size_t)u32 + 1) * sizeof *h->pair_key);
-    h->pair_count = malloc(((size_t)u32 + 1) * sizeof *h->pair_count);
+    h->pair_key = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->pair_key);
+    h->pair_count = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->pair_count);
     if (!h->pair_key || !h->pair_count)
         goto oom;
     for (uint32_t i = 0; i < u32; i++) {
@@ -1578,7 +1579,7 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         }
         if ((rc = gi_cursor_bytes(&cd, &bytes, 3 * (size_t)u32, st)) || (rc = gi_cursor_end(&cd, st)))
             goto fail;
-        h->pair_dir = malloc(3 * (size_t)u32 + 3);
+        h->pair_dir = gi_alloc_large(3 * (size_t)u32 + 3);
         if (!h->pair_dir)
             goto oom;
         memcpy(h->pair_dir, bytes, 3 * (size_t)u32);
@@ -1588,7 +1589,7 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
         (rc = gi_cursor_check_count(&c, u32, 44, "gathering points", st)))
         goto fail;
     h->num_gpoints = u32;
-    h->gpoints = calloc((size_t)u32 + 1, sizeof *h->gpoints);
+    h->gpoints = gi_calloc_large((size_t)u32 + 1, sizeof *h->gpoints);
     if (!h->gpoints)
         goto oom;
     for (uint32_t i = 0; i < u32; i++) {

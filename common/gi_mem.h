@@ -18,6 +18,8 @@ extern "C" {
 
 /* n bytes (contents undefined), or NULL when out of memory */
 void *gi_alloc_large(size_t n);
+/* n elements of sz bytes, zeroed (calloc's contract), or NULL */
+void *gi_calloc_large(size_t n, size_t sz);
 
 #ifdef __cplusplus
 }

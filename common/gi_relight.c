@@ -58,18 +58,18 @@ struct gi_relight {
 static int alloc_all(gi_relight *r)
 {
     uint64_t P = r->gip->num_photons, E = r->gip->num_entries, K = r->h->num_keys;
-    r->refl = calloc(3 * P + 3, sizeof *r->refl);
-    r->flux = calloc(3 * P + 3, sizeof *r->flux);
-    r->entry_pos = malloc((3 * E + 3) * sizeof *r->entry_pos);
-    r->entry_nrm = malloc((3 * E + 3) * sizeof *r->entry_nrm);
-    r->entry_texel = malloc((3 * E + 3) * sizeof *r->entry_texel);
-    r->entry_fd = malloc((3 * E + 3) * sizeof *r->entry_fd);
-    r->key_flux = calloc(3 * K + 3, sizeof *r->key_flux);
-    r->key_rad = calloc(4 * K + 4, sizeof *r->key_rad);
-    r->key_start = calloc(K + 2, sizeof *r->key_start);
-    r->key_photon = malloc((P + 1) * sizeof *r->key_photon);
-    r->gp_e = calloc(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
-    if (r->h->pair_dir && !(r->gp_t = calloc(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
+    r->refl = gi_calloc_large(3 * P + 3, sizeof *r->refl);
+    r->flux = gi_calloc_large(3 * P + 3, sizeof *r->flux);
+    r->entry_pos = gi_alloc_large((3 * E + 3) * sizeof *r->entry_pos);
+    r->entry_nrm = gi_alloc_large((3 * E + 3) * sizeof *r->entry_nrm);
+    r->entry_texel = gi_alloc_large((3 * E + 3) * sizeof *r->entry_texel);
+    r->entry_fd = gi_alloc_large((3 * E + 3) * sizeof *r->entry_fd);
+    r->key_flux = gi_calloc_large(3 * K + 3, sizeof *r->key_flux);
+    r->key_rad = gi_calloc_large(4 * K + 4, sizeof *r->key_rad);
+    r->key_start = gi_calloc_large(K + 2, sizeof *r->key_start);
+    r->key_photon = gi_alloc_large((P + 1) * sizeof *r->key_photon);
+    r->gp_e = gi_calloc_large(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
+    if (r->h->pair_dir && !(r->gp_t = gi_calloc_large(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
         return -1;
     return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->entry_fd && r->key_flux && r->key_rad &&
                    r->key_start &&

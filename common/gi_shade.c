@@ -253,9 +253,9 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
         return gi_status_set(st, GI_EXIT_SYSTEM, "gathering-point grid too large (%llu entries)",
                              (unsigned long long)total);
     }
-    sh->istart = calloc(cells + 2, sizeof *sh->istart);
-    sh->iidx = malloc((total + 1) * sizeof *sh->iidx);
-    sh->pstart = calloc(cells + 2, sizeof *sh->pstart);
+    sh->istart = gi_calloc_large(cells + 2, sizeof *sh->istart);
+    sh->iidx = gi_alloc_large((total + 1) * sizeof *sh->iidx);
+    sh->pstart = gi_calloc_large(cells + 2, sizeof *sh->pstart);
     sh->pidx = malloc(((size_t)n + 1) * sizeof *sh->pidx);
     if (!sh->istart || !sh->iidx || !sh->pstart || !sh->pidx) {
         gi_shade_free(sh);
@@ -618,7 +618,7 @@ static void reserve(void *pp, size_t *cap, size_t n, size_t sz)
     if (*p && n <= *cap)
         return;
     free(*p);
-    *p = malloc((n ? n : 1) * sz);
+    *p = gi_alloc_large((n ? n : 1) * sz);
     *cap = *p ? n : 0;
 }
 #define RESERVE(field, n) reserve(&sh->field, &sh->cap_##field, (n), sizeof *sh->field)
@@ -702,7 +702,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         RESERVE(ehard, nedge + 1);
         if (sh->ehard)
             memset(sh->ehard, 0, nedge + 1);
-        sh->xsf = calloc(nedge + 1, sizeof *sh->xsf);
+        sh->xsf = gi_calloc_large(nedge + 1, sizeof *sh->xsf);
         sh->nxsf = sh->xsf ? nedge : 0;
         if (!sh->epix || !sh->esf || !sh->esrc || !sh->ehard || !sh->xsf)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu edge pixels", nedge);
