@@ -1161,10 +1161,32 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             const ghit *gh = &hits[i * (size_t)N + (size_t)r];
             if (gh->bin < 0)
                 continue;
-            int32_t ni = 0;
-            while (t.n[ni].child >= 0 && 0.5f * t.n[ni].size >= gh->foot)
+            /* down to the footprint level, remembering the deepest cell on the
+             * way that has a key of the hit's normal bin: where the footprint
+             * cell has none (a face smaller than the entry-point spacing, such
+             * as a column base's top), that key stands in for it rather than
+             * darkness. Sponza, sun-moved: 17% of the rays that found no key
+             * find one so; the sunlit gathering points seen by the camera go
+             * from 0.82 to 0.84 of the path tracer's indirect illuminance in
+             * sum, rms 0.40 -> 0.35; images 0.1199 -> 0.1190 (sun-moved),
+             * 0.1190 -> 0.1187 (arcade-moved) */
+            int32_t ni = 0, ni_up = -1;
+            uint32_t key_up = GI_HVDS_NO_KEY;
+            for (;;) {
+                uint32_t kk = kh_get(&kh, kh_code(ni, gh->bin));
+                if (kk != GI_HVDS_NO_KEY) {
+                    key_up = kk;
+                    ni_up = ni;
+                }
+                if (!(t.n[ni].child >= 0 && 0.5f * t.n[ni].size >= gh->foot))
+                    break;
                 ni = t.n[ni].child + child_of(&t.n[ni], gh->pos);
+            }
             uint32_t key = kh_get(&kh, kh_code(ni, gh->bin));
+            if (key == GI_HVDS_NO_KEY && key_up != GI_HVDS_NO_KEY) {
+                key = key_up;
+                ni = ni_up;
+            }
             int moved = 0;
             while (o.occlusion_check && key != GI_HVDS_NO_KEY && t.n[ni].child >= 0) {
                 int ok = 1;
