@@ -23,6 +23,7 @@ void gi_hvds_opts_default(gi_hvds_opts *o)
     o->dir_bins = 64;
     o->cell_photons = 16.0f;
     o->key_photons = 8;
+    o->entry_keys = 2;
     o->occlusion_check = 1;
     o->leak_check = 1;
     o->seed = 1;
@@ -733,6 +734,27 @@ static int u64_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* (key, count) pairs of a sorted key list into out (2 words each); returns the pair count */
+static uint32_t count_keys(const uint32_t *k, uint32_t n, uint32_t *out)
+{
+    uint32_t w = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        if (!(w > 0 && out[2 * (w - 1)] == k[j])) {
+            out[2 * w] = k[j];
+            out[2 * w + 1] = 0;
+            w++;
+        }
+        out[2 * (w - 1) + 1]++;
+    }
+    return w;
+}
+
+static int u32_cmp(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 #define NREP 4
 
 int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_t gip_fingerprint,
@@ -782,9 +804,9 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     keyrec *recs = NULL;
     uint32_t *reps = NULL;
     double *area = NULL;
-    uint32_t **ptmp = NULL;
-    uint32_t *pcnt = NULL;
-    uint64_t *ksub = NULL;
+    uint32_t **ptmp = NULL, **stmp = NULL;
+    uint32_t *pcnt = NULL, *scnt0 = NULL, *scnt1 = NULL;
+    uint64_t *ksub = NULL, *ksub0 = NULL;
 
     /* 1. gathering points */
     double total = 0.0;
@@ -1132,6 +1154,21 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     for (size_t i = 0; i < nrec; i++)
         if (h->key_parent[i] != GI_HVDS_NO_KEY)
             ksub[h->key_parent[i]] += ksub[i];
+    /* entry points (first vertices) under every key, for --entry-keys */
+    const uint64_t kmin0 = (uint64_t)(o.entry_keys > 0 ? o.entry_keys : 0);
+    if (kmin0) {
+        ksub0 = calloc(nrec + 1, sizeof *ksub0);
+        if (!ksub0)
+            goto oom;
+        for (uint32_t e = 0; e < gip->num_entries; e++) {
+            uint32_t ke = h->photon_key[gip->path_start[e]];
+            if (ke != GI_HVDS_NO_KEY)
+                ksub0[ke]++;
+        }
+        for (size_t i = 0; i < nrec; i++)
+            if (h->key_parent[i] != GI_HVDS_NO_KEY)
+                ksub0[h->key_parent[i]] += ksub0[i];
+    }
 
     /* 8. gathering rays -> keys: footprint level, then down while occluded,
      * then up while the key holds fewer than key_photons photons. One photon
@@ -1143,7 +1180,12 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
      * 0.144 without it). */
     pcnt = calloc(ng + 1, sizeof *pcnt);
     ptmp = calloc(ng + 1, sizeof *ptmp);
-    if (!pcnt || !ptmp)
+    if (kmin0) {
+        scnt0 = calloc(ng + 1, sizeof *scnt0);
+        scnt1 = calloc(ng + 1, sizeof *scnt1);
+        stmp = calloc(ng + 1, sizeof *stmp);
+    }
+    if (!pcnt || !ptmp || (kmin0 && (!scnt0 || !scnt1 || !stmp)))
         goto oom;
     uint64_t descended = 0, lifted = 0;
     const uint64_t kmin = (uint64_t)(o.key_photons > 0 ? o.key_photons : 0);
@@ -1152,11 +1194,14 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     for (size_t i = 0; i < ng; i++) {
         gi_rt_thread_init();
         uint64_t *keys = malloc((size_t)N * sizeof *keys); /* key << 32 | ray */
-        if (!keys) {
+        uint32_t *skeys = kmin0 ? malloc((2 * (size_t)N + 2) * sizeof *skeys) : NULL; /* split rays: first, later */
+        if (!keys || (kmin0 && !skeys)) {
+            free(keys);
+            free(skeys);
             oom_flag = 1;
             continue;
         }
-        uint32_t nk = 0;
+        uint32_t nk = 0, ns = 0;
         for (int r = 0; r < N; r++) {
             const ghit *gh = &hits[i * (size_t)N + (size_t)r];
             if (gh->bin < 0)
@@ -1205,6 +1250,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
                 moved = 1;
             }
             descended += (uint64_t)moved;
+            uint32_t key_fp = key;
             while (key != GI_HVDS_NO_KEY && ksub[key] < kmin) {
                 uint32_t pk = h->key_parent[key];
                 if (pk == GI_HVDS_NO_KEY || !(h->key_scale[pk] > 0.0f))
@@ -1212,8 +1258,39 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
                 key = pk;
                 lifted++;
             }
+            if (kmin0 && key != key_fp) {
+                /* lifted: the coarser key averages surface the hit may not
+                 * share (a sunlit strip's key read from its shaded foot). The
+                 * first bounce, the entry points' exactly computed light,
+                 * needs no photon count: it is read from the finest key that
+                 * holds kmin0 entry points, when that is finer */
+                uint32_t k0 = key_fp;
+                while (ksub0[k0] < kmin0 && h->key_parent[k0] != GI_HVDS_NO_KEY && k0 != key)
+                    k0 = h->key_parent[k0];
+                if (k0 != key && ksub0[k0] >= kmin0) {
+                    skeys[ns] = k0;
+                    skeys[N + ns] = key;
+                    ns++;
+                    continue;
+                }
+            }
             if (key != GI_HVDS_NO_KEY)
                 keys[nk++] = (uint64_t)key << 32 | (uint32_t)r;
+        }
+        if (kmin0) {
+            uint32_t *sp = malloc((4 * (size_t)ns + 4) * sizeof *sp);
+            if (!sp) {
+                free(keys);
+                free(skeys);
+                oom_flag = 1;
+                continue;
+            }
+            qsort(skeys, ns, sizeof *skeys, u32_cmp);
+            qsort(skeys + N, ns, sizeof *skeys, u32_cmp);
+            scnt0[i] = count_keys(skeys, ns, sp);
+            scnt1[i] = count_keys(skeys + N, ns, sp + 2 * scnt0[i]);
+            stmp[i] = sp;
+            free(skeys);
         }
         qsort(keys, nk, sizeof *keys, u64_cmp);
         /* compact into (key, count, mean direction x, y, z) records of 5 words */
@@ -1287,6 +1364,34 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             }
         }
     }
+    if (kmin0) {
+        uint64_t np = 0;
+        for (size_t i = 0; i < ng; i++)
+            np += (uint64_t)scnt0[i] + scnt1[i];
+        if (np > UINT32_MAX) {
+            rc = gi_status_set(st, GI_EXIT_USAGE, "too many split-ray pairs (%llu)", (unsigned long long)np);
+            goto fail;
+        }
+        h->num_split = (uint32_t)np;
+        h->split_first = malloc((ng + 1) * sizeof *h->split_first);
+        h->split_n0 = malloc((ng + 1) * sizeof *h->split_n0);
+        h->split_n1 = malloc((ng + 1) * sizeof *h->split_n1);
+        h->split_key = malloc((np + 1) * sizeof *h->split_key);
+        h->split_count = malloc((np + 1) * sizeof *h->split_count);
+        if (!h->split_first || !h->split_n0 || !h->split_n1 || !h->split_key || !h->split_count)
+            goto oom;
+        uint32_t at = 0;
+        for (size_t i = 0; i < ng; i++) {
+            h->split_first[i] = at;
+            h->split_n0[i] = scnt0[i];
+            h->split_n1[i] = scnt1[i];
+            for (uint32_t j = 0; j < scnt0[i] + scnt1[i]; j++) {
+                h->split_key[at] = stmp[i][2 * j];
+                h->split_count[at] = (uint16_t)stmp[i][2 * j + 1];
+                at++;
+            }
+        }
+    }
 
     /* statistics */
     h->num_nodes = (uint32_t)t.count;
@@ -1309,7 +1414,14 @@ done:
             free(ptmp[i]);
     free(ptmp);
     free(pcnt);
+    if (stmp)
+        for (size_t i = 0; i < ng; i++)
+            free(stmp[i]);
+    free(stmp);
+    free(scnt0);
+    free(scnt1);
     free(ksub);
+    free(ksub0);
     free(area);
     free(reps);
     free(recs);
@@ -1343,6 +1455,11 @@ void gi_hvds_free(gi_hvds *h)
     free(h->pair_key);
     free(h->pair_count);
     free(h->pair_dir);
+    free(h->split_first);
+    free(h->split_n0);
+    free(h->split_n1);
+    free(h->split_key);
+    free(h->split_count);
     free(h);
 }
 
@@ -1365,8 +1482,9 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
     gi_buf_init(&pkey);
     gi_buf_init(&gpts);
     gi_buf_init(&gray);
-    gi_buf gdir;
+    gi_buf gdir, gspl;
     gi_buf_init(&gdir);
+    gi_buf_init(&gspl);
     int rc = 0;
     const gi_hvds_opts *o = &h->opts;
     if ((rc = gi_meta_add(&meta, "tool", "gi-hvds", st)) || (rc = gi_meta_add(&meta, "version", GI_VERSION, st)) ||
@@ -1377,6 +1495,7 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
         (rc = gi_meta_addf(&meta, "option.dir-bins", st, "%d", o->dir_bins)) ||
         (rc = gi_meta_addf(&meta, "option.cell-photons", st, "%.9g", o->cell_photons)) ||
         (rc = gi_meta_addf(&meta, "option.key-photons", st, "%d", o->key_photons)) ||
+        (rc = gi_meta_addf(&meta, "option.entry-keys", st, "%d", h->split_key ? o->entry_keys : 0)) ||
         (rc = gi_meta_addf(&meta, "option.occlusion-check", st, "%d", o->occlusion_check)) ||
         (rc = gi_meta_addf(&meta, "option.leak-check", st, "%d", o->leak_check)) ||
         (rc = gi_meta_addf(&meta, "option.seed", st, "%llu", (unsigned long long)o->seed)) ||
@@ -1429,6 +1548,19 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
         gi_buf_put_u32(&gdir, h->num_pairs);
         gi_buf_put_bytes(&gdir, h->pair_dir, 3 * (size_t)h->num_pairs);
     }
+    if (h->split_key) {
+        gi_buf_put_u32(&gspl, h->num_gpoints);
+        gi_buf_put_u32(&gspl, h->num_split);
+        for (uint32_t i = 0; i < h->num_gpoints; i++) {
+            gi_buf_put_u32(&gspl, h->split_first[i]);
+            gi_buf_put_u32(&gspl, h->split_n0[i]);
+            gi_buf_put_u32(&gspl, h->split_n1[i]);
+        }
+        for (uint32_t i = 0; i < h->num_split; i++)
+            gi_buf_put_u32(&gspl, h->split_key[i]);
+        for (uint32_t i = 0; i < h->num_split; i++)
+            gi_buf_put_u16(&gspl, h->split_count[i]);
+    }
 
     gi_writer *w = gi_writer_new(GI_HVDS_MAGIC, GI_HVDS_MAJOR, GI_HVDS_MINOR);
     if (!w) {
@@ -1438,7 +1570,8 @@ int gi_hvds_write(const gi_hvds *h, const char *path, const char *scene_path, co
     if (!(rc = gi_writer_add_buf(w, "META", 0, &meta, st)) && !(rc = gi_writer_add_buf(w, "OCTR", 0, &octr, st)) &&
         !(rc = gi_writer_add_buf(w, "KEYS", 0, &keys, st)) && !(rc = gi_writer_add_buf(w, "PKEY", 0, &pkey, st)) &&
         !(rc = gi_writer_add_buf(w, "GPTS", 0, &gpts, st)) && !(rc = gi_writer_add_buf(w, "GRAY", 0, &gray, st)) &&
-        !(rc = h->pair_dir ? gi_writer_add_buf(w, "GDIR", 0, &gdir, st) : 0))
+        !(rc = h->pair_dir ? gi_writer_add_buf(w, "GDIR", 0, &gdir, st) : 0) &&
+        !(rc = h->split_key ? gi_writer_add_buf(w, "GSPL", 0, &gspl, st) : 0))
         rc = gi_writer_write(w, path, st);
     gi_writer_free(w);
 out:
@@ -1449,6 +1582,7 @@ out:
     gi_buf_release(&gpts);
     gi_buf_release(&gray);
     gi_buf_release(&gdir);
+    gi_buf_release(&gspl);
     return rc;
 }
 
@@ -1485,6 +1619,9 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
     h->opts.key_photons = 0; /* files from before the option */
     if ((v = gi_reader_meta(r, "option.key-photons")))
         h->opts.key_photons = atoi(v);
+    h->opts.entry_keys = 0; /* files without split rays */
+    if ((v = gi_reader_meta(r, "option.entry-keys")))
+        h->opts.entry_keys = atoi(v);
     if ((v = gi_reader_meta(r, "option.r-min")))
         h->opts.r_min = strtof(v, NULL);
     if ((v = gi_reader_meta(r, "option.r-max")))
@@ -1634,6 +1771,51 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
     }
     if ((rc = gi_cursor_end(&c, st)))
         goto fail;
+    /* GSPL (optional, 1.2): split rays */
+    if (gi_reader_section(r, "GSPL", NULL)) {
+        gi_cursor cs;
+        uint32_t ngp = 0;
+        if ((rc = gi_reader_cursor(r, "GSPL", &cs, st)) || (rc = gi_cursor_u32(&cs, &ngp, st)) ||
+            (rc = gi_cursor_u32(&cs, &u32, st)))
+            goto fail;
+        if (ngp != h->num_gpoints) {
+            rc = gi_cursor_fail(&cs, st, "split rays for %u gathering points, the file has %u", ngp, h->num_gpoints);
+            goto fail;
+        }
+        if ((rc = gi_cursor_check_count(&cs, u32, 6, "split-ray pairs", st)))
+            goto fail;
+        h->num_split = u32;
+        h->split_first = gi_alloc_large(((size_t)ngp + 1) * sizeof *h->split_first);
+        h->split_n0 = gi_alloc_large(((size_t)ngp + 1) * sizeof *h->split_n0);
+        h->split_n1 = gi_alloc_large(((size_t)ngp + 1) * sizeof *h->split_n1);
+        h->split_key = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->split_key);
+        h->split_count = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->split_count);
+        if (!h->split_first || !h->split_n0 || !h->split_n1 || !h->split_key || !h->split_count)
+            goto oom;
+        for (uint32_t i = 0; i < ngp; i++) {
+            if ((rc = gi_cursor_u32(&cs, &h->split_first[i], st)) || (rc = gi_cursor_u32(&cs, &h->split_n0[i], st)) ||
+                (rc = gi_cursor_u32(&cs, &h->split_n1[i], st)))
+                goto fail;
+            uint64_t end = (uint64_t)h->split_first[i] + h->split_n0[i] + h->split_n1[i];
+            if (end > u32) {
+                rc = gi_cursor_fail(&cs, st, "gathering point %u: split-ray pairs end at %llu, beyond the %u pairs", i,
+                                    (unsigned long long)end, u32);
+                goto fail;
+            }
+        }
+        for (uint32_t i = 0; i < u32; i++) {
+            if ((rc = gi_cursor_u32(&cs, &h->split_key[i], st)))
+                goto fail;
+            if (h->split_key[i] >= h->num_keys) {
+                rc = gi_cursor_fail(&cs, st, "split-ray pair %u names key %u of %u", i, h->split_key[i], h->num_keys);
+                goto fail;
+            }
+        }
+        for (uint32_t i = 0; i < u32 && !rc; i++)
+            rc = gi_cursor_u16(&cs, &h->split_count[i], st);
+        if (rc || (rc = gi_cursor_end(&cs, st)))
+            goto fail;
+    }
     gi_reader_free(r);
     *out = h;
     return 0;

@@ -24,7 +24,7 @@ extern "C" {
 
 #define GI_HVDS_MAGIC "GIHVDS\0\0"
 #define GI_HVDS_MAJOR 1
-#define GI_HVDS_MINOR 1
+#define GI_HVDS_MINOR 2
 #define GI_HVDS_NORMAL_BINS 26
 #define GI_HVDS_NO_KEY 0xffffffffu
 #define GI_HVDS_MAX_DEPTH 20
@@ -39,6 +39,8 @@ typedef struct gi_hvds_opts {
     float cell_photons;      /* the smallest cell holds about this many photons on average */
     int key_photons;         /* a gathering ray reads the nearest ancestor key holding at least
                                 this many photons (0: its own key) */
+    int entry_keys;          /* a ray lifted by key_photons reads its first bounce from a finer key
+                                holding at least this many entry points (0: off, as .gih 1.1) */
     int occlusion_check;     /* 1: gathering rays descend past occluded coarse content (default) */
     int leak_check;          /* 1: split cells whose same-bin photons cannot see each other (default) */
     uint64_t seed;
@@ -84,6 +86,15 @@ typedef struct gi_hvds {
     uint32_t *pair_key;
     uint16_t *pair_count;
     int8_t *pair_dir;        /* 3 per pair: mean unit direction of its rays x 127 (NULL: 1.0 file) */
+    /* split rays (NULL without them: .gih 1.0 and 1.1, or entry_keys 0): rays that key_photons
+     * lifted to a coarser key read their first bounce from a finer key, the entry points' mean
+     * radiance there, and only the later bounces from the lifted key. Per gathering point i,
+     * pairs [split_first[i], + split_n0[i]) are first-bounce (key, count) pairs and the
+     * split_n1[i] after them later-bounce pairs. */
+    uint32_t num_split;
+    uint32_t *split_first, *split_n0, *split_n1;
+    uint32_t *split_key;
+    uint16_t *split_count;
     uint64_t num_rays;       /* gathering rays traced (= num_gpoints * gather_rays) */
     uint64_t rays_descended; /* rays moved to finer cells by the occlusion check */
     uint64_t rays_lifted;    /* rays moved to coarser keys by key_photons (build only, not stored) */

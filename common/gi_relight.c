@@ -47,8 +47,14 @@ struct gi_relight {
     float *flux;          /* 3 per photon vertex: outgoing flux */
     float *key_flux;      /* 3 per key */
     float *key_rad;       /* 4 per key: radiance pi/N * flux * scale (RGB, pad), read by the gather */
-    uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1) */
+    uint64_t *key_start;  /* CSR: photons of each key (num_keys + 1); with split rays its
+                             entry points first, up to key_mid */
+    uint64_t *key_mid;    /* NULL without split rays */
     uint32_t *key_photon;
+    float *key_flux0;     /* 3 per key, subtree: flux of the entry points alone (split rays) */
+    double *key_da0;      /* per key, subtree: their area dA (m^2) */
+    float *key_rad0;      /* 4 per key: pi/N * the entry points' mean radiance, sum flux / (pi sum dA) */
+    float *key_rad1;      /* 4 per key: pi/N * the radiance of the later vertices alone */
     float *gp_e;          /* 3 per gathering point */
     float *gp_t;          /* 9 per gathering point: tangential gradient of incident radiance (NULL: no GDIR) */
     int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
@@ -123,9 +129,40 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
     }
     memcpy(fill, r->key_start, (K + 1) * sizeof *fill);
-    for (uint64_t p = 0; p < P; p++)
-        if (h->photon_key[p] != GI_HVDS_NO_KEY)
-            r->key_photon[fill[h->photon_key[p]]++] = (uint32_t)p;
+    if (h->split_key) {
+        /* split rays read a key's entry points apart from its later
+         * vertices: the entry points go first in each key's list */
+        r->key_mid = gi_alloc_large((K + 1) * sizeof *r->key_mid);
+        r->key_flux0 = gi_calloc_large(3 * (size_t)K + 3, sizeof *r->key_flux0);
+        r->key_da0 = gi_calloc_large((size_t)K + 1, sizeof *r->key_da0);
+        r->key_rad0 = gi_calloc_large(4 * (size_t)K + 4, sizeof *r->key_rad0);
+        r->key_rad1 = gi_calloc_large(4 * (size_t)K + 4, sizeof *r->key_rad1);
+        if (!r->key_mid || !r->key_flux0 || !r->key_da0 || !r->key_rad0 || !r->key_rad1) {
+            free(fill);
+            gi_relight_free(r);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        }
+        for (uint32_t e = 0; e < gip->num_entries; e++) {
+            uint64_t v0 = gip->path_start[e];
+            uint32_t k = h->photon_key[v0];
+            if (k == GI_HVDS_NO_KEY)
+                continue;
+            r->key_photon[fill[k]++] = (uint32_t)v0;
+            r->key_da0[k] += gip->entry_dA[e];
+        }
+        memcpy(r->key_mid, fill, (K + 1) * sizeof *fill);
+        for (uint32_t e = 0; e < gip->num_entries; e++)
+            for (uint64_t p = gip->path_start[e] + 1; p < gip->path_start[e + 1]; p++)
+                if (h->photon_key[p] != GI_HVDS_NO_KEY)
+                    r->key_photon[fill[h->photon_key[p]]++] = (uint32_t)p;
+        for (uint32_t k = 0; k < K; k++)
+            if (h->key_parent[k] != GI_HVDS_NO_KEY)
+                r->key_da0[h->key_parent[k]] += r->key_da0[k];
+    } else {
+        for (uint64_t p = 0; p < P; p++)
+            if (h->photon_key[p] != GI_HVDS_NO_KEY)
+                r->key_photon[fill[h->photon_key[p]]++] = (uint32_t)p;
+    }
     free(fill);
     *out = r;
     return 0;
@@ -148,7 +185,12 @@ void gi_relight_free(gi_relight *r)
     free(r->key_flux);
     free(r->key_rad);
     free(r->key_start);
+    free(r->key_mid);
     free(r->key_photon);
+    free(r->key_flux0);
+    free(r->key_da0);
+    free(r->key_rad0);
+    free(r->key_rad1);
     free(r->gp_e);
     free(r->gp_t);
     free(r);
@@ -455,8 +497,20 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     uint32_t K = h->num_keys;
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
     for (uint32_t k = 0; k < K; k++) {
+        /* with split rays the entry points (first in the list) are also
+         * summed on their own */
+        uint64_t mid = r->key_mid ? r->key_mid[k] : r->key_start[k];
         double a[3] = {0, 0, 0};
-        for (uint64_t j = r->key_start[k]; j < r->key_start[k + 1]; j++) {
+        for (uint64_t j = r->key_start[k]; j < mid; j++) {
+            const float *f = r->flux + 3 * (size_t)r->key_photon[j];
+            a[0] += f[0];
+            a[1] += f[1];
+            a[2] += f[2];
+        }
+        if (r->key_mid)
+            for (int c = 0; c < 3; c++)
+                r->key_flux0[3 * (size_t)k + c] = (float)a[c];
+        for (uint64_t j = mid; j < r->key_start[k + 1]; j++) {
             const float *f = r->flux + 3 * (size_t)r->key_photon[j];
             a[0] += f[0];
             a[1] += f[1];
@@ -472,6 +526,9 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             continue;
         for (int c = 0; c < 3; c++)
             r->key_flux[3 * (size_t)p + c] += r->key_flux[3 * (size_t)k + c];
+        if (r->key_mid)
+            for (int c = 0; c < 3; c++)
+                r->key_flux0[3 * (size_t)p + c] += r->key_flux0[3 * (size_t)k + c];
     }
     double t3 = gi_now();
     /* 4. gathering points: E = sum over rays of L(key) * pi / N, L = flux * scale;
@@ -479,9 +536,21 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
      * 16-byte record per ray */
     float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
 #pragma omp parallel for schedule(static) num_threads(r->threads)
-    for (uint32_t k = 0; k < K; k++)
+    for (uint32_t k = 0; k < K; k++) {
         for (int c = 0; c < 3; c++)
             r->key_rad[4 * (size_t)k + c] = (float)((double)r->key_flux[3 * (size_t)k + c] * h->key_scale[k] * w);
+        if (r->key_mid) {
+            /* split rays: the entry points' mean radiance, sum dA kd E / (pi sum dA),
+             * and the later vertices' radiance on their own */
+            double inv = r->key_da0[k] > 0.0 ? (double)w / (GI_PI * r->key_da0[k]) : 0.0;
+            for (int c = 0; c < 3; c++) {
+                double f0 = r->key_flux0[3 * (size_t)k + c];
+                r->key_rad0[4 * (size_t)k + c] = (float)(f0 * inv);
+                r->key_rad1[4 * (size_t)k + c] =
+                    (float)(fmax((double)r->key_flux[3 * (size_t)k + c] - f0, 0.0) * h->key_scale[k] * w);
+            }
+        }
+    }
 #pragma omp parallel for schedule(static) num_threads(r->threads)
     for (uint32_t i = 0; i < h->num_gpoints; i++) {
         const gi_gpoint *gp = &h->gpoints[i];
@@ -493,13 +562,24 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             a[1] += cnt * L[1];
             a[2] += cnt * L[2];
         }
+        if (r->key_mid) {
+            uint32_t j0 = h->split_first[i], j1 = j0 + h->split_n0[i], j2 = j1 + h->split_n1[i];
+            for (uint32_t j = j0; j < j2; j++) {
+                const float *L = (j < j1 ? r->key_rad0 : r->key_rad1) + 4 * (size_t)h->split_key[j];
+                double cnt = (double)h->split_count[j];
+                a[0] += cnt * L[0];
+                a[1] += cnt * L[1];
+                a[2] += cnt * L[2];
+            }
+        }
         r->gp_e[3 * i] = (float)a[0];
         r->gp_e[3 * i + 1] = (float)a[1];
         r->gp_e[3 * i + 2] = (float)a[2];
         if (r->gp_t && r->any_glossy) {
             /* the cosine-weighted first moment M1 = (1/N) sum L w of the
              * incident radiance; for L(w) = a + b.w its part tangential to the
-             * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n) */
+             * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n). Split rays
+             * (GSPL) have no directions and are left out of it */
             double m[3][3] = {{0}};
             for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
                 uint32_t k = h->pair_key[j];

@@ -32,6 +32,8 @@ static void help(void)
            "  --cell-photons N         the smallest cell holds about N photons (default %g)\n"
            "  --key-photons N          a gathering ray reads the nearest coarser key holding at least\n"
            "                           N photons when its own holds fewer (default %d; 0: off)\n"
+           "  --entry-keys N           such a ray reads its first bounce (the entry points' light) from\n"
+           "                           the finest key holding N entry points (default %d; 0: off)\n"
            "  --no-occlusion-check     experiments: keep gathering rays at their footprint level even\n"
            "                           when that cell holds surfaces hidden from the hit (paper §9)\n"
            "  --no-leak-check          experiments: do not split cells across thin walls\n"
@@ -41,10 +43,10 @@ static void help(void)
            "\n"
            "exit status: 0 success, 2 usage, 3 bad input data (including a .gip of another\n"
            "scene), 4 system failure\n",
-           d.gather_rays, d.dir_bins, d.cell_photons, d.key_photons, (unsigned long long)d.seed);
+           d.gather_rays, d.dir_bins, d.cell_photons, d.key_photons, d.entry_keys, (unsigned long long)d.seed);
 }
 
-enum { OPT_GATHER = 256, OPT_RAYS, OPT_RMIN, OPT_RMAX, OPT_DIRB, OPT_CELLP, OPT_KEYP, OPT_NOOCC, OPT_NOLEAK };
+enum { OPT_GATHER = 256, OPT_RAYS, OPT_RMIN, OPT_RMAX, OPT_DIRB, OPT_CELLP, OPT_KEYP, OPT_ENTK, OPT_NOOCC, OPT_NOLEAK };
 
 int main(int argc, char **argv)
 {
@@ -55,6 +57,7 @@ int main(int argc, char **argv)
         {"gather-rays", required_argument, 0, OPT_RAYS}, {"r-min", required_argument, 0, OPT_RMIN},
         {"r-max", required_argument, 0, OPT_RMAX}, {"dir-bins", required_argument, 0, OPT_DIRB},
         {"cell-photons", required_argument, 0, OPT_CELLP}, {"key-photons", required_argument, 0, OPT_KEYP},
+        {"entry-keys", required_argument, 0, OPT_ENTK},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'}, {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},       {"no-occlusion-check", no_argument, 0, OPT_NOOCC},
@@ -83,6 +86,7 @@ int main(int argc, char **argv)
         case OPT_DIRB: o.dir_bins = (int)gi_opt_long("--dir-bins", optarg, 1, 4096); break;
         case OPT_CELLP: o.cell_photons = (float)gi_opt_double("--cell-photons", optarg, 0.01, 1e9); break;
         case OPT_KEYP: o.key_photons = (int)gi_opt_long("--key-photons", optarg, 0, 1000000); break;
+        case OPT_ENTK: o.entry_keys = (int)gi_opt_long("--entry-keys", optarg, 0, 1000000); break;
         case OPT_NOOCC: o.occlusion_check = 0; break;
         case OPT_NOLEAK: o.leak_check = 0; break;
         case 's': o.seed = gi_opt_u64("--seed", optarg); break;
@@ -134,10 +138,10 @@ int main(int argc, char **argv)
             if (h->cells_per_level[l])
                 n += (size_t)snprintf(levels + n, sizeof levels - n, "%s%u:%u", n ? " " : "", l,
                                       h->cells_per_level[l]);
-        gi_info("%u gathering points (%s), %llu gathering rays -> %u (key, count) pairs, %llu moved to "
-                "finer cells by the occlusion check, %llu to coarser keys for --key-photons %d",
+        gi_info("%u gathering points (%s), %llu gathering rays -> %u (key, count) pairs and %u split-ray pairs, "
+                "%llu moved to finer cells by the occlusion check, %llu to coarser keys for --key-photons %d",
                 h->num_gpoints, h->opts.gather == GI_GATHER_KMEANS ? "k-means" : "rejection",
-                (unsigned long long)h->num_rays, h->num_pairs, (unsigned long long)h->rays_descended,
+                (unsigned long long)h->num_rays, h->num_pairs, h->num_split, (unsigned long long)h->rays_descended,
                 (unsigned long long)h->rays_lifted, h->opts.key_photons);
         gi_info("octree: %u nodes, depth %u, leaves per level %s; %u keys", h->num_nodes, h->depth, levels,
                 h->num_keys);

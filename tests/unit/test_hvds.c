@@ -334,6 +334,28 @@ static void test_cornell_like_accuracy_and_bytes(void **state)
             assert_true(x * g->nrm[0] + y * g->nrm[1] + z * g->nrm[2] > -0.05f);
         }
     }
+    /* GSPL: the split rays survive the file; each split ray is in both of
+     * its point's lists once (first bounce, later bounces), and with the
+     * other pairs no point has more rays than it traced */
+    assert_non_null(p.h->split_key);
+    assert_non_null(h2->split_key);
+    assert_true(h2->num_split > 0);
+    assert_int_equal(h2->num_split, p.h->num_split);
+    assert_memory_equal(h2->split_key, p.h->split_key, h2->num_split * sizeof *h2->split_key);
+    assert_memory_equal(h2->split_count, p.h->split_count, h2->num_split * sizeof *h2->split_count);
+    for (uint32_t i = 0; i < h2->num_gpoints; i++) {
+        const gi_gpoint *g = &h2->gpoints[i];
+        uint64_t n0 = 0, n1 = 0, nm = 0;
+        uint32_t j0 = h2->split_first[i], j1 = j0 + h2->split_n0[i], j2 = j1 + h2->split_n1[i];
+        for (uint32_t j = j0; j < j1; j++)
+            n0 += h2->split_count[j];
+        for (uint32_t j = j1; j < j2; j++)
+            n1 += h2->split_count[j];
+        for (uint32_t j = g->first_pair; j < g->first_pair + g->num_pairs; j++)
+            nm += h2->pair_count[j];
+        assert_true(n0 == n1);
+        assert_true(nm + n0 <= (uint64_t)(h2->num_rays / h2->num_gpoints));
+    }
     gi_hvds_free(h2);
     assert_int_equal(gi_hvds_read(p1, p.s, 4321, p.gip->num_photons, &h2, &st), GI_EXIT_DATA);
     assert_non_null(strstr(st.msg, "gip"));
