@@ -287,6 +287,7 @@ static void test_cornell_like_accuracy_and_bytes(void **state)
     gi_hvds_opts ho;
     gi_hvds_opts_default(&ho);
     ho.gather_rays = 144;
+    ho.entry_keys = 2; /* split rays, to check GSPL below */
     pipe_build(&p, 300000, &ho, 1);
     char p1[512], p2[512];
     snprintf(p1, sizeof p1, "%s/a.gih", g_dir);
