@@ -1586,6 +1586,24 @@ out:
     return rc;
 }
 
+/* n (key, count) pairs as GRAY and GSPL store them: n u32 keys, each < num_keys, then n u16
+ * counts; what names a pair in the error ("gathering pair 3 names key 9 of 8") */
+static int read_pairs(gi_cursor *c, uint32_t n, uint32_t num_keys, uint32_t *key, uint16_t *count, const char *what,
+                      gi_status *st)
+{
+    int rc;
+    for (uint32_t i = 0; i < n; i++) {
+        if ((rc = gi_cursor_u32(c, &key[i], st)))
+            return rc;
+        if (key[i] >= num_keys)
+            return gi_cursor_fail(c, st, "%s %u names key %u of %u", what, i, key[i], num_keys);
+    }
+    for (uint32_t i = 0; i < n; i++)
+        if ((rc = gi_cursor_u16(c, &count[i], st)))
+            return rc;
+    return gi_cursor_end(c, st);
+}
+
 int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, uint64_t num_photons,
                  gi_hvds **out, gi_status *st)
 {
@@ -1714,17 +1732,7 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
     h->pair_count = gi_alloc_large(((size_t)u32 + 1) * sizeof *h->pair_count);
     if (!h->pair_key || !h->pair_count)
         goto oom;
-    for (uint32_t i = 0; i < u32; i++) {
-        if ((rc = gi_cursor_u32(&cg, &h->pair_key[i], st)))
-            goto fail;
-        if (h->pair_key[i] >= h->num_keys) {
-            rc = gi_cursor_fail(&cg, st, "gathering pair %u names key %u of %u", i, h->pair_key[i], h->num_keys);
-            goto fail;
-        }
-    }
-    for (uint32_t i = 0; i < u32 && !rc; i++)
-        rc = gi_cursor_u16(&cg, &h->pair_count[i], st);
-    if (rc || (rc = gi_cursor_end(&cg, st)))
+    if ((rc = read_pairs(&cg, u32, h->num_keys, h->pair_key, h->pair_count, "gathering pair", st)))
         goto fail;
     /* GDIR (optional, 1.1): mean direction of each pair's rays */
     if (gi_reader_section(r, "GDIR", NULL)) {
@@ -1803,17 +1811,7 @@ int gi_hvds_read(const char *path, const gi_scene *s, uint64_t gip_fingerprint, 
                 goto fail;
             }
         }
-        for (uint32_t i = 0; i < u32; i++) {
-            if ((rc = gi_cursor_u32(&cs, &h->split_key[i], st)))
-                goto fail;
-            if (h->split_key[i] >= h->num_keys) {
-                rc = gi_cursor_fail(&cs, st, "split-ray pair %u names key %u of %u", i, h->split_key[i], h->num_keys);
-                goto fail;
-            }
-        }
-        for (uint32_t i = 0; i < u32 && !rc; i++)
-            rc = gi_cursor_u16(&cs, &h->split_count[i], st);
-        if (rc || (rc = gi_cursor_end(&cs, st)))
+        if ((rc = read_pairs(&cs, u32, h->num_keys, h->split_key, h->split_count, "split-ray pair", st)))
             goto fail;
     }
     gi_reader_free(r);
