@@ -138,10 +138,13 @@ int main(int argc, char **argv)
             if (h->cells_per_level[l])
                 n += (size_t)snprintf(levels + n, sizeof levels - n, "%s%u:%u", n ? " " : "", l,
                                       h->cells_per_level[l]);
-        gi_info("%u gathering points (%s), %llu gathering rays -> %u (key, count) pairs and %u split-ray pairs, "
-                "%llu moved to finer cells by the occlusion check, %llu to coarser keys for --key-photons %d",
+        char split[64] = "";
+        if (h->split_key)
+            snprintf(split, sizeof split, " and %u split-ray pairs", h->num_split);
+        gi_info("%u gathering points (%s), %llu gathering rays -> %u (key, count) pairs%s, %llu moved to finer "
+                "cells by the occlusion check, %llu to coarser keys for --key-photons %d",
                 h->num_gpoints, h->opts.gather == GI_GATHER_KMEANS ? "k-means" : "rejection",
-                (unsigned long long)h->num_rays, h->num_pairs, h->num_split, (unsigned long long)h->rays_descended,
+                (unsigned long long)h->num_rays, h->num_pairs, split, (unsigned long long)h->rays_descended,
                 (unsigned long long)h->rays_lifted, h->opts.key_photons);
         gi_info("octree: %u nodes, depth %u, leaves per level %s; %u keys", h->num_nodes, h->depth, levels,
                 h->num_keys);
