@@ -166,8 +166,20 @@ static void row_FG(const gi_texture *t, const double *pre, int row, double x, do
     if (i < 0)
         i = 0;
     double fr = xi - (double)i;
+    /* the texel's value is F's step over it: the texels themselves are
+     * another array, and reading them cost another cache miss per lookup */
+    if (!mirror && m == 0.0) {
+        /* the common case, in the first period: the row's totals at its end
+         * (another cache line) are not needed */
+        for (int c = 0; c < 3; c++) {
+            double Fl = pr[6 * i + c], v = pr[6 * (i + 1) + c] - Fl;
+            F[c] = Fl + fr * v;
+            G[c] = pr[6 * i + 3 + c] + Fl * fr + 0.5 * fr * fr * v;
+        }
+        return;
+    }
     for (int c = 0; c < 3; c++) {
-        double T = pr[6 * w + c], Gw = pr[6 * w + 3 + c], v = tx[4 * i + c];
+        double T = pr[6 * w + c], Gw = pr[6 * w + 3 + c], v = pr[6 * (i + 1) + c] - pr[6 * i + c];
         double Fi = pr[6 * i + c] + fr * v;
         double Gi = pr[6 * i + 3 + c] + pr[6 * i + c] * fr + 0.5 * fr * fr * v;
         double Fp = Fi, Gp = Gi, TP = T, GP = Gw;
