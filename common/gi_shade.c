@@ -535,14 +535,16 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
      * footprint like the reference's box-filtered pixel; the spread of the
      * shading normal over the same footprint */
     gi_vec3 ro, dx, dy;
-    int tex = texf && m->base_color_tex >= 0;
+    int tex = texf > 0 && m->base_color_tex >= 0;
     if (tex || sh->want_nvar) {
         gi_camera_ray(cam, w, h, fx + step, fy, &ro, &dx);
         gi_camera_ray(cam, w, h, fx, fy + step, &ro, &dy);
     }
     if (sh->want_nvar)
         o->nvar = footprint_nvar(s, sf.tri, eye, sf.p, dx, dy);
-    if (tex) {
+    if (texf < 0) {
+        o->texel[0] = o->texel[1] = o->texel[2] = 1.0f; /* the caller's business */
+    } else if (tex) {
         gi_texfilter_texel(sh->tf, m, sf.tri, eye, sf.p, dx, dy, o->texel);
     } else {
         gi_material unit = *m;
@@ -556,9 +558,10 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
 
 /* The surface an Embree camera ray through (fx, fy) finds, without texture
  * filtering or weights (the callers take those from neighbouring samples
- * first). Returns o->valid; hit: what the ray hit. */
+ * first); texel: 1 the texture's value at the point, 0 none (left to the
+ * caller). Returns o->valid; hit: what the ray hit. */
 static int camera_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, float fx, float fy, float step,
-                         ssurf *o, gi_hit *hit)
+                         int texel, ssurf *o, gi_hit *hit)
 {
     o->valid = 0;
     o->npairs = 0;
@@ -567,7 +570,7 @@ static int camera_sample(const gi_shade *sh, const gi_camera *cam, int w, int h,
     gi_camera_ray(cam, w, h, fx, fy, &ro, &rd);
     if (!gi_rt_intersect(sh->rt, ro, rd, 0.0f, INFINITY, hit))
         return 0;
-    fill_sample(sh, cam, w, h, hit->tri, hit->u, hit->v, fx, fy, step, 0, 0, o);
+    fill_sample(sh, cam, w, h, hit->tri, hit->u, hit->v, fx, fy, step, texel ? 0 : -1, 0, o);
     return o->valid;
 }
 
@@ -738,7 +741,7 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 sh->esrc[e * (size_t)ne + (size_t)j] = UINT32_MAX;
                 ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j++];
                 gi_hit hit;
-                if (!camera_sample(sh, cam, w, h, fx, fy, estep, o, &hit))
+                if (!camera_sample(sh, cam, w, h, fx, fy, estep, 0, o, &hit))
                     continue;
                 /* the texel (filtered over its pixel) and interpolation weights
                  * of the centre's or a neighbour's sample on the same surface;
@@ -767,6 +770,13 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                     gi_camera_ray(cam, w, h, fx, fy + estep, &r0, &dy);
                     gi_texfilter_texel(sh->tf, &s->materials[o->material], hit.tri, gi_v3p(cam->position),
                                        gi_v3p(o->p), dx, dy, o->texel);
+                } else if (!reused) {
+                    /* the texture's value at the point (camera_sample left it) */
+                    gi_surface hs;
+                    gi_rt_surface(sh->rt, &hit, &hs);
+                    gi_material unit = s->materials[o->material];
+                    unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+                    gi_scene_base_color(s, &unit, hs.uv0, hs.uv1, o->texel);
                 }
                 if (!reused)
                     o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, o->gp, o->w);
@@ -1242,7 +1252,7 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
         float fx = (float)px + ((float)(j % GI_SHADE_XK) + gi_rng_float(&r)) * step;
         float fy = (float)py + ((float)(j / GI_SHADE_XK) + gi_rng_float(&r)) * step;
         gi_hit hit;
-        if (!camera_sample(sh, cam, w, h, fx, fy, step, o, &hit))
+        if (!camera_sample(sh, cam, w, h, fx, fy, step, 1, o, &hit))
             continue;
         int reused = 0;
         const ssurf *c0 = &sh->sf[pix];
