@@ -142,6 +142,51 @@ int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tma
     return 1;
 }
 
+void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, gi_hit *hit,
+                       uint8_t *found)
+{
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    /* not RTC_INTERSECT_CONTEXT_FLAG_COHERENT: with it Embree 3.13 found
+     * other (wrong) hits for some camera rays of a Sponza pixel (7 pixels of
+     * a frame lit where single rays and the path tracer see shade); shadow
+     * rays give the same answers either way */
+    for (int base = 0; base < n; base += 16) {
+        int m = n - base < 16 ? n - base : 16;
+        RTC_ALIGN(64) int valid[16];
+        RTC_ALIGN(64) struct RTCRayHit16 r;
+        for (int i = 0; i < 16; i++) {
+            int k = base + (i < m ? i : 0);
+            valid[i] = i < m ? -1 : 0;
+            r.ray.org_x[i] = o[k].x;
+            r.ray.org_y[i] = o[k].y;
+            r.ray.org_z[i] = o[k].z;
+            r.ray.dir_x[i] = d[k].x;
+            r.ray.dir_y[i] = d[k].y;
+            r.ray.dir_z[i] = d[k].z;
+            r.ray.tnear[i] = tmin;
+            r.ray.tfar[i] = INFINITY;
+            r.ray.time[i] = 0.0f;
+            r.ray.mask[i] = 0xffffffffu;
+            r.ray.id[i] = (unsigned)i;
+            r.ray.flags[i] = 0;
+            r.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            r.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        }
+        tl_rays += (uint64_t)m;
+        rtcIntersect16(valid, rt->scene, &ctx, &r);
+        for (int i = 0; i < m; i++) {
+            found[base + i] = r.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+            if (found[base + i]) {
+                hit[base + i].t = r.ray.tfar[i];
+                hit[base + i].tri = r.hit.primID[i];
+                hit[base + i].u = r.hit.u[i];
+                hit[base + i].v = r.hit.v[i];
+            }
+        }
+    }
+}
+
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax)
 {
     struct RTCIntersectContext ctx;

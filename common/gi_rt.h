@@ -40,6 +40,10 @@ void gi_rt_thread_init(void);
 
 /* Closest hit along o + t d, t in (tmin, tmax); returns 1 on a hit. d unit. */
 int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax, gi_hit *hit);
+/* n coherent rays (say, the samples of one pixel) from tmin to infinity, in
+ * packets of 16; found[i] = 1 and hit[i] set when ray i hits. */
+void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, gi_hit *hit,
+                       uint8_t *found);
 /* 1 if anything blocks o + t d for t in (tmin, tmax). */
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax);
 /* n shadow rays o[i] + t d[i], t in (0, tmax[i]), traced as coherent packets

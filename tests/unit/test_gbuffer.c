@@ -76,6 +76,23 @@ static void test_gbuffer_matches_camera_rays(void **state)
                 if (gi_len(gi_sub(a.p, c.p)) > 1e-3f)
                     far++;
             }
+        /* packets of a row's rays find exactly what single rays find */
+        int differ = 0;
+        for (int y = 0; y < H; y++) {
+            gi_vec3 o[W], d[W];
+            gi_hit hn[W];
+            uint8_t found[W];
+            for (int x = 0; x < W; x++)
+                gi_camera_ray(&cam, W, H, (float)x + jit[j][0], (float)y + jit[j][1], &o[x], &d[x]);
+            gi_rt_intersect_n(rt, W, o, d, 0.0f, hn, found);
+            for (int x = 0; x < W; x++) {
+                gi_hit h1;
+                int hit = gi_rt_intersect(rt, o[x], d[x], 0.0f, INFINITY, &h1);
+                differ += hit != found[x] || (hit && (h1.tri != hn[x].tri || h1.t != hn[x].t || h1.u != hn[x].u ||
+                                                      h1.v != hn[x].v));
+            }
+        }
+        assert_int_equal(differ, 0);
         print_message("jitter (%.3f, %.3f): %d of %d pixels see another triangle, %d another point\n", jit[j][0],
                       jit[j][1], mismatch, W * H, far);
         /* a few pixels may straddle an edge or a triangle diagonal */
