@@ -37,6 +37,9 @@ typedef struct gi_shade_opts {
     int edge_refine;    /* 1: edge pixels whose samples see a strong contrast of a point,
                            spot or directional light's irradiance get 16 more samples of
                            it (default 0) */
+    int coverage;       /* with aa >= 3: each edge pixel's samples weighted by their share
+                           of coverage x coverage camera rays (0, the default: aa + 4;
+                           1: equal shares) */
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;

@@ -5,8 +5,9 @@
 # centre aliases. Against a 256-spp path-traced reference at 64 x 48, the
 # default relight (footprint-filtered texture, edge and shadow-edge samples)
 # must be within nrmse 0.1 and well under the unfiltered one-sample image
-# (--tex-filter off --aa 1). Also: each of the two halves helps on its own, and
-# --edge-refine improves on 3 x 3 edge samples.
+# (--tex-filter off --aa 1). Also: each of the two halves helps on its own,
+# --edge-refine improves on 3 x 3 edge samples of equal shares, and so do the
+# samples' coverage shares (the default; --coverage 1: equal shares).
 . "$(dirname "$0")/lib.sh"
 command -v python3 >/dev/null || { echo "ok 1 # skip python3 missing"; exit 0; }
 S=$TMP/floor.gltf
@@ -77,17 +78,20 @@ in2=("$S" "$TMP/f.gip" "$TMP/f.gih" "$TMP/front.script")
 expect_success "reference of the front-lit frame, 256 spp" gi-compare render -q "$S" "$TMP/front.script" --spp 256 \
   -o "$TMP/ref2.exr"
 expect_success "relight, 3 x 3 edge samples" gi-relight -q "${in2[@]}" -o "$TMP/aa3" --aa 3
-expect_success "relight, 3 x 3 edge samples and --edge-refine" gi-relight -q "${in2[@]}" -o "$TMP/ref3" --aa 3 \
-  --edge-refine
+expect_success "relight, 3 x 3 edge samples of equal shares" gi-relight -q "${in2[@]}" -o "$TMP/aa3c1" --aa 3 \
+  --coverage 1
+expect_success "relight, 3 x 3 edge samples of equal shares and --edge-refine" gi-relight -q "${in2[@]}" \
+  -o "$TMP/ref3" --aa 3 --coverage 1 --edge-refine
 err() { gi-compare diff "$TMP/$1/lit.exr" "$TMP/ref.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }'; }
 e_def=$(err def) e_raw=$(err raw) e_tex=$(err tex) e_edge=$(err edge)
 err2() { gi-compare diff "$TMP/$1/lit.exr" "$TMP/ref2.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }'; }
-e_aa3=$(err2 aa3) e_ref3=$(err2 ref3)
+e_aa3=$(err2 aa3) e_ref3=$(err2 ref3) e_aa3c1=$(err2 aa3c1)
 lt() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a != "" && b != "" && a + 0 < b + 0) }'; }
 check "defaults within nrmse 0.1 of the reference (nrmse $e_def)" lt "$e_def" 0.1
 check "defaults under half the unfiltered one-sample error ($e_def vs $e_raw)" \
   lt "$e_def" "$(awk -v r="$e_raw" 'BEGIN { print r / 2 }')"
 check "the texture filter alone helps ($e_tex < $e_raw)" lt "$e_tex" "$e_raw"
 check "the edge and shadow-edge samples alone help ($e_edge < $e_raw)" lt "$e_edge" "$e_raw"
-check "--edge-refine helps 3 x 3 edge samples ($e_ref3 < $e_aa3)" lt "$e_ref3" "$e_aa3"
+check "--edge-refine helps 3 x 3 edge samples of equal shares ($e_ref3 < $e_aa3c1)" lt "$e_ref3" "$e_aa3c1"
+check "the samples' coverage shares help 3 x 3 edge samples ($e_aa3 < $e_aa3c1)" lt "$e_aa3" "$e_aa3c1"
 finish
