@@ -358,8 +358,9 @@ void gi_shade_free(gi_shade *sh)
 
 /* Irradiance-cache weights at (p, n): w_i = 1 - E_i / reach with the
  * Tabellion error E_i = max(|x - x_i| / R_i, sqrt(1 - n.n_i) / sqrt(1 - cos 10deg)).
- * Keeps the K largest, normalised. No point with weight: the nearest point on
- * the same side within 3 cells, weight 1. Returns the number kept. */
+ * Keeps the K largest, normalised. No point with weight: the points on the
+ * same side within 3 cells, with a wider reach (below). Returns the number
+ * kept. */
 static int interp_weights(const gi_shade *sh, const float p[3], const float n[3], uint32_t *idx, float *wout)
 {
     const gi_hvds *h = sh->h;
@@ -406,7 +407,13 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
         }
     }
     if (k == 0) {
-        float best = INFINITY;
+        /* no point within reach: the K points on the same side within 3
+         * cells of least error E_i, weighted as above with the reach
+         * widened to twice the least error. The single nearest point, as
+         * before, left blocks and steps (4.9% of Sponza's pixels held a
+         * quarter of its indirect light's squared error); the widened reach
+         * moves with the pixel, so the weights stay continuous. */
+        float err[GI_SHADE_K];
         for (int dz = -3; dz <= 3; dz++)
             for (int dy = -3; dy <= 3; dy++)
                 for (int dx = -3; dx <= 3; dx++) {
@@ -421,19 +428,36 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
                         if (dn <= 0.0f)
                             continue;
                         float d[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]};
-                        float score = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / g->radius +
-                                      sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na;
-                        if (score < best) {
-                            best = score;
-                            idx[0] = i;
+                        float e = fmaxf(sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / g->radius,
+                                        sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na);
+                        if (k < GI_SHADE_K) {
+                            idx[k] = i;
+                            err[k++] = e;
+                        } else {
+                            int m = 0;
+                            for (int q = 1; q < GI_SHADE_K; q++)
+                                if (err[q] > err[m])
+                                    m = q;
+                            if (e < err[m]) {
+                                idx[m] = i;
+                                err[m] = e;
+                            }
                         }
                     }
                 }
-        if (best < INFINITY) {
-            wout[0] = 1.0f;
-            return 1;
-        }
-        return 0;
+        if (k == 0)
+            return 0;
+        float emin = err[0];
+        for (int q = 1; q < k; q++)
+            emin = fminf(emin, err[q]);
+        float r2 = 2.0f * emin + 1e-6f;
+        int kk = 0;
+        for (int q = 0; q < k; q++)
+            if (err[q] < r2) {
+                idx[kk] = idx[q];
+                wout[kk++] = 1.0f - err[q] / r2;
+            }
+        k = kk;
     }
     for (int q = 0; q < k; q++)
         wsum += wout[q];
