@@ -142,6 +142,30 @@ int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tma
     return 1;
 }
 
+/* Lanes [0, 16) of a packet from rays base.. of o, d (lanes past the m rays
+ * left: invalid, copies of the first), from tnear to tfar (tmax[k], or
+ * INFINITY when tmax is NULL). */
+static void packet16(struct RTCRay16 *r, int *valid, int base, int m, const gi_vec3 *o, const gi_vec3 *d,
+                     float tnear, const float *tmax)
+{
+    for (int i = 0; i < 16; i++) {
+        int k = base + (i < m ? i : 0);
+        valid[i] = i < m ? -1 : 0;
+        r->org_x[i] = o[k].x;
+        r->org_y[i] = o[k].y;
+        r->org_z[i] = o[k].z;
+        r->dir_x[i] = d[k].x;
+        r->dir_y[i] = d[k].y;
+        r->dir_z[i] = d[k].z;
+        r->tnear[i] = tnear;
+        r->tfar[i] = tmax ? tmax[k] : INFINITY;
+        r->time[i] = 0.0f;
+        r->mask[i] = 0xffffffffu;
+        r->id[i] = (unsigned)i;
+        r->flags[i] = 0;
+    }
+}
+
 void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, gi_hit *hit,
                        uint8_t *found)
 {
@@ -155,21 +179,8 @@ void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *
         int m = n - base < 16 ? n - base : 16;
         RTC_ALIGN(64) int valid[16];
         RTC_ALIGN(64) struct RTCRayHit16 r;
+        packet16(&r.ray, valid, base, m, o, d, tmin, NULL);
         for (int i = 0; i < 16; i++) {
-            int k = base + (i < m ? i : 0);
-            valid[i] = i < m ? -1 : 0;
-            r.ray.org_x[i] = o[k].x;
-            r.ray.org_y[i] = o[k].y;
-            r.ray.org_z[i] = o[k].z;
-            r.ray.dir_x[i] = d[k].x;
-            r.ray.dir_y[i] = d[k].y;
-            r.ray.dir_z[i] = d[k].z;
-            r.ray.tnear[i] = tmin;
-            r.ray.tfar[i] = INFINITY;
-            r.ray.time[i] = 0.0f;
-            r.ray.mask[i] = 0xffffffffu;
-            r.ray.id[i] = (unsigned)i;
-            r.ray.flags[i] = 0;
             r.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
             r.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
@@ -219,22 +230,7 @@ void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d
         int m = n - base < 16 ? n - base : 16;
         RTC_ALIGN(64) int valid[16];
         RTC_ALIGN(64) struct RTCRay16 r;
-        for (int i = 0; i < 16; i++) {
-            int k = base + (i < m ? i : 0);
-            valid[i] = i < m ? -1 : 0;
-            r.org_x[i] = o[k].x;
-            r.org_y[i] = o[k].y;
-            r.org_z[i] = o[k].z;
-            r.dir_x[i] = d[k].x;
-            r.dir_y[i] = d[k].y;
-            r.dir_z[i] = d[k].z;
-            r.tnear[i] = 0.0f;
-            r.tfar[i] = tmax[k];
-            r.time[i] = 0.0f;
-            r.mask[i] = 0xffffffffu;
-            r.id[i] = (unsigned)i;
-            r.flags[i] = 0;
-        }
+        packet16(&r, valid, base, m, o, d, 0.0f, tmax);
         tl_rays += (uint64_t)m;
         rtcOccluded16(valid, rt->scene, &ctx, &r);
         for (int i = 0; i < m; i++)
