@@ -735,6 +735,12 @@ static void coverage_shares(const gi_shade *sh, const gi_camera *cam, int w, int
             ew[j] = 1.0f / (float)ns;
         return;
     }
+    /* which samples see the same surface */
+    uint8_t same[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX][GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
+    for (int a = 0; a < ns; a++)
+        for (int b = a; b < ns; b++)
+            same[a][b] = same[b][a] = (uint8_t)!discontinuous(smp[a], smp[b], pix_angle);
+    const float spacing = 1.0f / sqrtf((float)ns); /* between neighbouring samples, about */
     gi_rng r;
     gi_rng_seed(&r, 0xc0e7, pix, 0);
     enum { CH = 64 };
@@ -742,14 +748,38 @@ static void coverage_shares(const gi_shade *sh, const gi_camera *cam, int w, int
     gi_vec3 ro[CH], rd[CH];
     gi_hit hit[CH];
     uint8_t found[CH];
-    for (int i0 = 0; i0 < nr; i0 += CH) {
-        int n = nr - i0 < CH ? nr - i0 : CH;
-        for (int i = 0; i < n; i++) {
-            int c = i0 + i;
-            fx[i] = (float)x + ((float)(c % cov) + gi_rng_float(&r)) / (float)cov;
-            fy[i] = (float)y + ((float)(c / cov) + gi_rng_float(&r)) / (float)cov;
-            gi_camera_ray(cam, w, h, fx[i], fy[i], &ro[i], &rd[i]);
+    int n = 0;
+    for (int c = 0; c <= nr; c++) {
+        if (c < nr) {
+            float qx = (float)x + ((float)(c % cov) + gi_rng_float(&r)) / (float)cov;
+            float qy = (float)y + ((float)(c / cov) + gi_rng_float(&r)) / (float)cov;
+            /* a ray whose nearest samples, out to one spacing beyond the
+             * nearest, all see one surface would find it: counted untraced.
+             * Sponza: 26% of the rays, camera moves ~45 ms faster (G-buffer
+             * medians 454 -> 410 ms), nrmse +0.0002 and +0.0004; half a
+             * spacing: 40 ms more saved for +0.0009 and +0.0017 */
+            float d2[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
+            int n1 = 0;
+            for (int j = 0; j < ns; j++) {
+                d2[j] = (qx - spx[j]) * (qx - spx[j]) + (qy - spy[j]) * (qy - spy[j]);
+                if (d2[j] < d2[n1])
+                    n1 = j;
+            }
+            float lim = sqrtf(d2[n1]) + spacing;
+            int agree = 1;
+            for (int j = 0; j < ns && agree; j++)
+                agree = d2[j] > lim * lim || same[n1][j];
+            if (agree) {
+                cnt[n1]++;
+                continue;
+            }
+            fx[n] = qx;
+            fy[n] = qy;
+            gi_camera_ray(cam, w, h, qx, qy, &ro[n], &rd[n]);
+            n++;
         }
+        if (n == 0 || (n < CH && c < nr))
+            continue;
         gi_rt_intersect_n(sh->rt, n, ro, rd, 0.0f, hit, found);
         for (int i = 0; i < n; i++) {
             int best = -1;
@@ -782,6 +812,7 @@ static void coverage_shares(const gi_shade *sh, const gi_camera *cam, int w, int
             }
             cnt[best]++;
         }
+        n = 0;
     }
     for (int j = 0; j < ns; j++)
         ew[j] = (float)cnt[j] / (float)nr;
