@@ -28,12 +28,17 @@ extern "C" {
 #define GI_HVDS_NORMAL_BINS 26
 #define GI_HVDS_NO_KEY 0xffffffffu
 #define GI_HVDS_MAX_DEPTH 20
+/* --gather-rays by default: this many rays over all gathering points, 256 to
+ * 1024 per point; a ray's footprint is that of one of at most
+ * GI_HVDS_FOOT_RAYS rays */
+#define GI_HVDS_RAY_BUDGET (1u << 24)
+#define GI_HVDS_FOOT_RAYS 256
 
 enum { GI_GATHER_REJECTION = 0, GI_GATHER_KMEANS = 1 };
 
 typedef struct gi_hvds_opts {
     int gather;              /* GI_GATHER_* */
-    int gather_rays;         /* rays per gathering point (rounded to a square) */
+    int gather_rays;         /* rays per gathering point (rounded to a square; 0: auto) */
     float r_min, r_max;      /* R- and R+ in metres (0: from the scene size) */
     int dir_bins;            /* direction bins on the sphere for glossy keys */
     float cell_photons;      /* the smallest cell holds about this many photons on average */

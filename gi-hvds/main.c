@@ -25,7 +25,8 @@ static void help(void)
            "\n"
            "  -o, --output FILE        the .gih to write (required)\n"
            "  --gather rejection|kmeans  gathering-point selection (default rejection: Tabellion metric)\n"
-           "  --gather-rays N          rays per gathering point, rounded to a square (default %d)\n"
+           "  --gather-rays N|auto     rays per gathering point, rounded to a square (default auto:\n"
+           "                           2^24 over the points, 256 to 1024)\n"
            "  --r-min R, --r-max R     min/max spacing of gathering points in metres\n"
            "                           (default R+ = scene diagonal / 128, R- = R+ / 5)\n"
            "  --dir-bins N             direction bins for glossy keys (default %d)\n"
@@ -43,7 +44,7 @@ static void help(void)
            "\n"
            "exit status: 0 success, 2 usage, 3 bad input data (including a .gip of another\n"
            "scene), 4 system failure\n",
-           d.gather_rays, d.dir_bins, d.cell_photons, d.key_photons, d.entry_keys, (unsigned long long)d.seed);
+           d.dir_bins, d.cell_photons, d.key_photons, d.entry_keys, (unsigned long long)d.seed);
 }
 
 enum { OPT_GATHER = 256, OPT_RAYS, OPT_RMIN, OPT_RMAX, OPT_DIRB, OPT_CELLP, OPT_KEYP, OPT_ENTK, OPT_NOOCC, OPT_NOLEAK };
@@ -80,7 +81,9 @@ int main(int argc, char **argv)
             else
                 gi_usage_error("--gather: expected 'rejection' or 'kmeans', got '%s'", optarg);
             break;
-        case OPT_RAYS: o.gather_rays = (int)gi_opt_long("--gather-rays", optarg, 1, 65535); break;
+        case OPT_RAYS:
+            o.gather_rays = strcmp(optarg, "auto") ? (int)gi_opt_long("--gather-rays", optarg, 1, 65535) : 0;
+            break;
         case OPT_RMIN: o.r_min = (float)gi_opt_double("--r-min", optarg, 1e-9, 1e9); break;
         case OPT_RMAX: o.r_max = (float)gi_opt_double("--r-max", optarg, 1e-9, 1e9); break;
         case OPT_DIRB: o.dir_bins = (int)gi_opt_long("--dir-bins", optarg, 1, 4096); break;

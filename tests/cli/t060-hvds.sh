@@ -24,7 +24,7 @@ no_tmp_files() { [ -z "$(find "$TMP" -name '*.tmp.*' -print -quit)" ]; }
 # ---- help and version ---------------------------------------------------------------
 expect_success "--help exits 0" "$GH" --help
 expect_stdout '^usage: gi-hvds SCENE SCENE\.gip -o SCENE\.gih' "--help prints the usage on stdout"
-expect_stdout 'default 256' "--help gives the gathering-ray default"
+expect_stdout 'default auto' "--help gives the gathering-ray default"
 check "--help writes nothing on stderr" test ! -s "$TMP/stderr"
 expect_success "--version exits 0" "$GH" --version
 expect_stdout '^gi-hvds [0-9]' "--version names the tool"
