@@ -4,6 +4,9 @@
 
 #include "gi_emit.h"
 
+#include <math.h>
+#include <string.h>
+
 float gi_spot_falloff(const gi_light *l, float cos_angle)
 {
     float co = cosf(l->outer_cone), ci = cosf(l->inner_cone);
@@ -93,6 +96,62 @@ int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_ligh
     default:
         return 0;
     }
+}
+
+float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n)
+{
+    if (l->type != GI_LIGHT_AREA)
+        return 0.0f;
+    gi_vec3 c = gi_v3p(l->position), u = gi_v3p(l->u), v = gi_v3p(l->v);
+    if (gi_dot(gi_sub(x, c), gi_area_light_normal(l)) <= 0.0f)
+        return 0.0f;
+    /* corners relative to x, in double: far lights make neighbouring
+     * directions nearly equal */
+    double q[4][3], nn[3] = {n.x, n.y, n.z};
+    const float su[4] = {-1, 1, 1, -1}, sv[4] = {-1, -1, 1, 1};
+    for (int i = 0; i < 4; i++) {
+        q[i][0] = (double)c.x - x.x + su[i] * (double)u.x + sv[i] * (double)v.x;
+        q[i][1] = (double)c.y - x.y + su[i] * (double)u.y + sv[i] * (double)v.y;
+        q[i][2] = (double)c.z - x.z + su[i] * (double)u.z + sv[i] * (double)v.z;
+    }
+    /* clip to the half space above the plane (Sutherland-Hodgman) */
+    double p[8][3];
+    int m = 0;
+    for (int i = 0; i < 4; i++) {
+        const double *a = q[i], *b = q[(i + 1) % 4];
+        double da = a[0] * nn[0] + a[1] * nn[1] + a[2] * nn[2];
+        double db = b[0] * nn[0] + b[1] * nn[1] + b[2] * nn[2];
+        if (da >= 0.0)
+            memcpy(p[m++], a, sizeof p[0]);
+        if ((da >= 0.0) != (db >= 0.0)) {
+            double t = da / (da - db);
+            for (int k = 0; k < 3; k++)
+                p[m][k] = a[k] + t * (b[k] - a[k]);
+            m++;
+        }
+    }
+    if (m < 3)
+        return 0.0f;
+    for (int i = 0; i < m; i++) {
+        double len = sqrt(p[i][0] * p[i][0] + p[i][1] * p[i][1] + p[i][2] * p[i][2]);
+        if (!(len > 0.0))
+            return 0.0f; /* x on the light */
+        for (int k = 0; k < 3; k++)
+            p[i][k] /= len;
+    }
+    /* Lambert: sum over edges of the angle they subtend times the normal's
+     * component along the edge's plane normal */
+    double sum = 0.0;
+    for (int i = 0; i < m; i++) {
+        const double *a = p[i], *b = p[(i + 1) % m];
+        double cr[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+        double s = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+        if (!(s > 0.0))
+            continue;
+        double ang = atan2(s, a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+        sum += ang * (cr[0] * nn[0] + cr[1] * nn[1] + cr[2] * nn[2]) / s;
+    }
+    return (float)(0.5 * fabs(sum));
 }
 
 int gi_light_has_area(const gi_light *l)

@@ -34,6 +34,11 @@ int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_ligh
 /* 1 for lights with extent (area, emissive mesh): sampled at several points,
  * soft shadows; 0 for point, spot and directional lights. */
 int gi_light_has_area(const gi_light *l);
+/* Rectangular area light l (GI_LIGHT_AREA): its projected solid angle seen
+ * from x above the plane of normal n, unoccluded, from Lambert's formula for
+ * a polygon clipped to that plane (0 behind the light or below the plane).
+ * The irradiance at x is intensity * color * this. */
+float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n);
 /* Spot cone attenuation in [0,1] for the cosine between the axis and the
  * direction from the light to the point. */
 float gi_spot_falloff(const gi_light *l, float cos_angle);

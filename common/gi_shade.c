@@ -1231,6 +1231,34 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     specular_aa(&bs, sf->nvar);
     int nsmp = gi_light_has_area(lt) ? ka * ka : 1;
     gi_rng rng;
+    /* a rectangle's diffuse light is exact unshadowed (Lambert's formula),
+     * times the share of the samples' weight that finds the light (a ratio
+     * estimator): no noise where the whole light is seen, close to a large
+     * panel where sampled irradiance is noisiest. Cornell box, a 0.4 x 0.4 m
+     * ceiling panel, 256 x 256 against 2048 spp: nrmse 0.0474 -> 0.0128, with
+     * a glossy floor 0.0475 -> 0.0128 (t082) */
+    gi_vec3 ediff = gi_v3(0, 0, 0);
+    int analytic = 0;
+    if (lt->type == GI_LIGHT_AREA && gi_maxc(bs.kd) > 0.0f) {
+        float form = gi_area_light_form(lt, p, nsn);
+        double wsum = 0.0;
+        gi_rng_seed(&rng, seed, id, l);
+        for (int j = 0; j < nsmp && form > 0.0f; j++) {
+            float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
+            float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
+            gi_light_sample ls;
+            if (!gi_light_sample_at(lt, p, u1, u2, &ls))
+                continue;
+            float cosi = gi_dot(nsn, ls.wi);
+            if (cosi > 0.0f)
+                wsum += gi_luminance(ls.value) * cosi;
+        }
+        if (form > 0.0f && wsum > 0.0) {
+            analytic = 1;
+            ediff = gi_scale(gi_mul(bs.kd, gi_v3p(lt->color)),
+                             (float)(lt->intensity * form * GI_INV_PIf * (double)nsmp / wsum));
+        }
+    }
     gi_rng_seed(&rng, seed, id, l);
     for (int j = 0; j < nsmp; j++) {
         float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
@@ -1250,7 +1278,14 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         b->o[q] = gi_rt_offset(p, ng, ls.wi);
         b->d[q] = ls.wi;
         b->t[q] = gi_rt_shadow_tmax(p, b->o[q], ls.dist);
-        b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
+        if (analytic) {
+            /* the sampled glossy lobe, and the diffuse part by its weight */
+            float wq = gi_luminance(ls.value) * cosi;
+            gi_vec3 spec = gi_sub(f, gi_scale(bs.kd, GI_INV_PIf));
+            b->c[q] = gi_madd(gi_scale(gi_mul(spec, ls.value), cosi), ediff, wq);
+        } else {
+            b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
+        }
         b->ce[q] = gi_luminance(ls.value) * cosi;
         b->idx[q] = slot;
         queued++;

@@ -241,6 +241,41 @@ static void test_area_configuration_factor(void **state)
     world_free(&w);
 }
 
+/* ---- 2a. the relight's analytic irradiance of a rectangle ------------------ */
+/* gi_area_light_form (Lambert's formula, clipped to the receiver's plane)
+ * against a 512 x 512 stratified estimate with the light's own sampling, at
+ * points under the light, beside it, close under an edge, far away, with
+ * tilted normals whose plane cuts the rectangle, and behind it (0). */
+static void test_area_form_analytic(void **state)
+{
+    (void)state;
+    float c[3] = {0, 1, 0}, u[3] = {0.5f, 0, 0}, v[3] = {0, 0, 0.25f};
+    gi_light l = area_light(c, u, v, 1.0f);
+    const float pts[][6] = {
+        {0, 0, 0, 0, 1, 0},          {2, 0, 0, 0, 1, 0},          {0.45f, 0.97f, 0, 0, 1, 0},
+        {0, 0.9f, 0, 1, 0, 0},       {0.2f, 0.5f, 0.1f, -0.6f, 0.8f, 0}, {0, 0.5f, 0, 0.6f, 0.8f, 0},
+        {30, -20, 10, 0, 1, 0},      {0.3f, 0.99f, 0.2f, 0, 0, 1}, {0, 1.5f, 0, 0, -1, 0},
+    };
+    const int K = 512;
+    for (size_t i = 0; i < sizeof pts / sizeof pts[0]; i++) {
+        gi_vec3 x = gi_v3p(pts[i]), n = gi_norm(gi_v3p(pts[i] + 3));
+        double mc = 0.0;
+        for (int j = 0; j < K * K; j++) {
+            gi_light_sample ls;
+            if (!gi_light_sample_at(&l, x, ((float)(j % K) + 0.5f) / K, ((float)(j / K) + 0.5f) / K, &ls))
+                continue;
+            double co = gi_dot(n, ls.wi);
+            if (co > 0.0)
+                mc += ls.value.x * co;
+        }
+        mc /= (double)K * K;
+        double an = gi_area_light_form(&l, x, n);
+        print_message("form point %zu: analytic %.6g, sampled %.6g\n", i, an, mc);
+        if (fabs(an - mc) > 0.003 * mc + 1e-9)
+            fail_msg("form point %zu: analytic %.6g, sampled %.6g", i, an, mc);
+    }
+}
+
 /* ---- 2b. emissive glTF surfaces: the same rectangle as geometry ---------- */
 /* The rectangle of test_area_configuration_factor as two emissive triangles
  * (single-sided, facing down). The mesh light that gi-relight builds from
@@ -545,6 +580,7 @@ int main(void)
         cmocka_unit_test(test_point_inverse_square),
         cmocka_unit_test(test_spot_directional),
         cmocka_unit_test(test_area_configuration_factor),
+        cmocka_unit_test(test_area_form_analytic),
         cmocka_unit_test(test_emissive_configuration_factor),
         cmocka_unit_test(test_flux_conservation),
         cmocka_unit_test(test_room_rho50),
