@@ -98,6 +98,51 @@ int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_ligh
     }
 }
 
+/* Projected solid angle of the polygon q[0..m-1] (corners relative to the
+ * receiver, m <= 4, convex) clipped to the half space above the plane of unit
+ * normal nn: Lambert's formula, in double (far lights make neighbouring
+ * directions nearly equal). */
+static double polygon_form(double q[][3], int m, const double nn[3])
+{
+    double p[8][3];
+    int k = 0;
+    for (int i = 0; i < m; i++) {
+        const double *a = q[i], *b = q[(i + 1) % m];
+        double da = a[0] * nn[0] + a[1] * nn[1] + a[2] * nn[2];
+        double db = b[0] * nn[0] + b[1] * nn[1] + b[2] * nn[2];
+        if (da >= 0.0)
+            memcpy(p[k++], a, sizeof p[0]);
+        if ((da >= 0.0) != (db >= 0.0)) {
+            double t = da / (da - db);
+            for (int c = 0; c < 3; c++)
+                p[k][c] = a[c] + t * (b[c] - a[c]);
+            k++;
+        }
+    }
+    if (k < 3)
+        return 0.0;
+    for (int i = 0; i < k; i++) {
+        double len = sqrt(p[i][0] * p[i][0] + p[i][1] * p[i][1] + p[i][2] * p[i][2]);
+        if (!(len > 0.0))
+            return 0.0; /* the receiver on the light */
+        for (int c = 0; c < 3; c++)
+            p[i][c] /= len;
+    }
+    /* each edge: the angle it subtends times the normal's component along
+     * the normal of the plane through it and the receiver */
+    double sum = 0.0;
+    for (int i = 0; i < k; i++) {
+        const double *a = p[i], *b = p[(i + 1) % k];
+        double cr[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+        double sn = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+        if (!(sn > 0.0))
+            continue;
+        double ang = atan2(sn, a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+        sum += ang * (cr[0] * nn[0] + cr[1] * nn[1] + cr[2] * nn[2]) / sn;
+    }
+    return 0.5 * fabs(sum);
+}
+
 float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n)
 {
     if (l->type != GI_LIGHT_AREA)
@@ -105,8 +150,6 @@ float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n)
     gi_vec3 c = gi_v3p(l->position), u = gi_v3p(l->u), v = gi_v3p(l->v);
     if (gi_dot(gi_sub(x, c), gi_area_light_normal(l)) <= 0.0f)
         return 0.0f;
-    /* corners relative to x, in double: far lights make neighbouring
-     * directions nearly equal */
     double q[4][3], nn[3] = {n.x, n.y, n.z};
     const float su[4] = {-1, 1, 1, -1}, sv[4] = {-1, -1, 1, 1};
     for (int i = 0; i < 4; i++) {
@@ -114,44 +157,41 @@ float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n)
         q[i][1] = (double)c.y - x.y + su[i] * (double)u.y + sv[i] * (double)v.y;
         q[i][2] = (double)c.z - x.z + su[i] * (double)u.z + sv[i] * (double)v.z;
     }
-    /* clip to the half space above the plane (Sutherland-Hodgman) */
-    double p[8][3];
-    int m = 0;
-    for (int i = 0; i < 4; i++) {
-        const double *a = q[i], *b = q[(i + 1) % 4];
-        double da = a[0] * nn[0] + a[1] * nn[1] + a[2] * nn[2];
-        double db = b[0] * nn[0] + b[1] * nn[1] + b[2] * nn[2];
-        if (da >= 0.0)
-            memcpy(p[m++], a, sizeof p[0]);
-        if ((da >= 0.0) != (db >= 0.0)) {
-            double t = da / (da - db);
-            for (int k = 0; k < 3; k++)
-                p[m][k] = a[k] + t * (b[k] - a[k]);
-            m++;
+    return (float)polygon_form(q, 4, nn);
+}
+
+int gi_light_analytic(const gi_light *l, gi_vec3 x, gi_vec3 n, gi_vec3 *E)
+{
+    *E = gi_v3(0.0f, 0.0f, 0.0f);
+    if (!l->enabled)
+        return 0;
+    gi_vec3 col = gi_scale(gi_v3p(l->color), l->intensity);
+    if (l->type == GI_LIGHT_AREA) {
+        *E = gi_scale(col, gi_area_light_form(l, x, n));
+        return 1;
+    }
+    const gi_emit *e = l->mesh;
+    if (l->type != GI_LIGHT_MESH || !e || e->n == 0 || e->n > GI_LIGHT_ANALYTIC_TRIS)
+        return 0;
+    double nn[3] = {n.x, n.y, n.z}, acc[3] = {0, 0, 0};
+    for (size_t k = 0; k < e->n; k++) {
+        const float *g = e->geo + 12 * k;
+        double q[3][3];
+        for (int c = 0; c < 3; c++) {
+            q[0][c] = (double)g[c] - (&x.x)[c];
+            q[1][c] = q[0][c] + g[3 + c];
+            q[2][c] = q[0][c] + g[6 + c];
         }
-    }
-    if (m < 3)
-        return 0.0f;
-    for (int i = 0; i < m; i++) {
-        double len = sqrt(p[i][0] * p[i][0] + p[i][1] * p[i][1] + p[i][2] * p[i][2]);
-        if (!(len > 0.0))
-            return 0.0f; /* x on the light */
-        for (int k = 0; k < 3; k++)
-            p[i][k] /= len;
-    }
-    /* Lambert: sum over edges of the angle they subtend times the normal's
-     * component along the edge's plane normal */
-    double sum = 0.0;
-    for (int i = 0; i < m; i++) {
-        const double *a = p[i], *b = p[(i + 1) % m];
-        double cr[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-        double s = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
-        if (!(s > 0.0))
+        /* the emitting side faces x: its normal points towards x */
+        double side = -(q[0][0] * g[9] + q[0][1] * g[10] + q[0][2] * g[11]);
+        if (!(side > 0.0) && !(side < 0.0 && e->two_sided[k]))
             continue;
-        double ang = atan2(s, a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
-        sum += ang * (cr[0] * nn[0] + cr[1] * nn[1] + cr[2] * nn[2]) / s;
+        double f = polygon_form(q, 3, nn);
+        for (int c = 0; c < 3; c++)
+            acc[c] += f * e->le[3 * k + c];
     }
-    return (float)(0.5 * fabs(sum));
+    *E = gi_mul(col, gi_v3((float)acc[0], (float)acc[1], (float)acc[2]));
+    return 1;
 }
 
 int gi_light_has_area(const gi_light *l)

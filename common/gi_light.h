@@ -39,6 +39,13 @@ int gi_light_has_area(const gi_light *l);
  * a polygon clipped to that plane (0 behind the light or below the plane).
  * The irradiance at x is intensity * color * this. */
 float gi_area_light_form(const gi_light *l, gi_vec3 x, gi_vec3 n);
+/* Emissive meshes of at most this many triangles have an analytic irradiance. */
+#define GI_LIGHT_ANALYTIC_TRIS 64
+/* The unshadowed irradiance (lux per channel, colour and strength included)
+ * that light l gives x above the plane of unit normal n, when it has a closed
+ * form: a rectangle, or emissive triangles (at most GI_LIGHT_ANALYTIC_TRIS;
+ * each seen from its emitting side). Returns 1 with *E set, else 0. */
+int gi_light_analytic(const gi_light *l, gi_vec3 x, gi_vec3 n, gi_vec3 *E);
 /* Spot cone attenuation in [0,1] for the cosine between the axis and the
  * direction from the light to the point. */
 float gi_spot_falloff(const gi_light *l, float cos_angle);

@@ -404,15 +404,16 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                     gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
                     acc[e - e0] = dacc[e - e0] = gi_v3(0, 0, 0);
                     gi_rng rng;
-                    /* a rectangle: the exact unshadowed irradiance times the
-                     * share of the samples' weight that finds the light, as
-                     * the pixels do (gi_shade.c, sb_light) */
+                    /* a rectangle or a few emissive triangles: the exact
+                     * unshadowed irradiance times the share of the samples'
+                     * weight that finds the light, as the pixels do
+                     * (gi_shade.c, sb_light) */
                     float escale = 0.0f;
-                    if (L->type == GI_LIGHT_AREA) {
-                        float form = gi_area_light_form(L, x, nn);
+                    gi_vec3 ean;
+                    if (gi_light_analytic(L, x, nn, &ean) && gi_maxc(ean) > 0.0f) {
                         double wsum = 0.0;
                         gi_rng_seed(&rng, r->seed, e, l);
-                        for (int j = 0; j < ns && form > 0.0f; j++) {
+                        for (int j = 0; j < ns; j++) {
                             float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
                             float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
                             gi_light_sample ls;
@@ -422,8 +423,8 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                             if (cosi > 0.0f)
                                 wsum += gi_luminance(ls.value) * cosi;
                         }
-                        if (form > 0.0f && wsum > 0.0)
-                            escale = (float)(L->intensity * form * (double)ns / wsum);
+                        if (wsum > 0.0)
+                            escale = (float)((double)ns / wsum);
                     }
                     gi_rng_seed(&rng, r->seed, e, l);
                     for (int j = 0; j < ns; j++) {
@@ -438,7 +439,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                         ro[nr] = gi_rt_offset(x, nn, ls.wi);
                         rd[nr] = ls.wi;
                         rt[nr] = gi_rt_shadow_tmax(x, ro[nr], ls.dist);
-                        rv[nr] = escale > 0.0f ? gi_scale(gi_v3p(L->color), escale * gi_luminance(ls.value) * cosi)
+                        rv[nr] = escale > 0.0f ? gi_scale(ean, escale * gi_luminance(ls.value) * cosi)
                                                : gi_scale(ls.value, cosi);
                         re[nr] = e - e0;
                         nr++;

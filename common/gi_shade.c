@@ -1231,19 +1231,20 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     specular_aa(&bs, sf->nvar);
     int nsmp = gi_light_has_area(lt) ? ka * ka : 1;
     gi_rng rng;
-    /* a rectangle's diffuse light is exact unshadowed (Lambert's formula),
-     * times the share of the samples' weight that finds the light (a ratio
-     * estimator): no noise where the whole light is seen, close to a large
-     * panel where sampled irradiance is noisiest. Cornell box, a 0.4 x 0.4 m
+    /* a rectangle's (or a few emissive triangles') diffuse light is exact
+     * unshadowed (Lambert's formula), times the share of the samples' weight
+     * that finds the light (a ratio estimator): no noise where the whole
+     * light is seen, close to a large panel where sampled irradiance is
+     * noisiest. Cornell box, a 0.4 x 0.4 m
      * ceiling panel, 256 x 256 against 2048 spp: nrmse 0.0474 -> 0.0128, with
      * a glossy floor 0.0475 -> 0.0128 (t082) */
     gi_vec3 ediff = gi_v3(0, 0, 0);
     int analytic = 0;
-    if (lt->type == GI_LIGHT_AREA && gi_maxc(bs.kd) > 0.0f) {
-        float form = gi_area_light_form(lt, p, nsn);
+    gi_vec3 ean;
+    if (gi_maxc(bs.kd) > 0.0f && gi_light_analytic(lt, p, nsn, &ean) && gi_maxc(ean) > 0.0f) {
         double wsum = 0.0;
         gi_rng_seed(&rng, seed, id, l);
-        for (int j = 0; j < nsmp && form > 0.0f; j++) {
+        for (int j = 0; j < nsmp; j++) {
             float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
             float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
             gi_light_sample ls;
@@ -1253,10 +1254,9 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
             if (cosi > 0.0f)
                 wsum += gi_luminance(ls.value) * cosi;
         }
-        if (form > 0.0f && wsum > 0.0) {
+        if (wsum > 0.0) {
             analytic = 1;
-            ediff = gi_scale(gi_mul(bs.kd, gi_v3p(lt->color)),
-                             (float)(lt->intensity * form * GI_INV_PIf * (double)nsmp / wsum));
+            ediff = gi_scale(gi_mul(bs.kd, ean), (float)(GI_INV_PIf * (double)nsmp / wsum));
         }
     }
     gi_rng_seed(&rng, seed, id, l);

@@ -329,6 +329,11 @@ static void test_emissive_configuration_factor(void **state)
                       lux[i], err[i], expect);
         if (fabs(mesh - expect) > 0.003 * expect)
             fail_msg("emissive point %zu: mesh light E = %.6g, exact pi L F = %.6g", i, mesh, expect);
+        /* the relight's closed form for a few emissive triangles */
+        gi_vec3 ea;
+        assert_int_equal(gi_light_analytic(&ml, x, gi_norm(nn), &ea), 1);
+        if (fabs(ea.y - expect) > 1e-4 * expect)
+            fail_msg("emissive point %zu: analytic E = %.6g, exact %.6g", i, ea.y, expect);
         double tol = fmax(4.0 * err[i], 0.003 * expect);
         assert_true(tol < 0.02 * expect);
         if (fabs(lux[i] - expect) > tol)
@@ -346,6 +351,9 @@ static void test_emissive_configuration_factor(void **state)
     /* above the panel, looking down at its back: single-sided, nothing */
     gi_light_sample ls;
     assert_int_equal(gi_light_sample_at(&ml, gi_v3(0, 2, 0), 0.5f, 0.5f, &ls), 0);
+    gi_vec3 eback;
+    assert_int_equal(gi_light_analytic(&ml, gi_v3(0, 2, 0), gi_v3(0, -1, 0), &eback), 1);
+    assert_true(eback.y == 0.0f);
     assert_true(gi_emit_pdf(e, w.s->num_triangles + 5, gi_v3(0, 1, 0), 1.0f) == 0.0f);
     gi_emit_free(e);
     /* double-sided, the same panel emits upwards too: from 1 m above it, by
@@ -368,6 +376,8 @@ static void test_emissive_configuration_factor(void **state)
     }
     print_message("double-sided panel from above: %.5g lux, exact %.5g\n", sum / (k * k), expect);
     assert_true(fabs(sum / (k * k) - expect) < 0.003 * expect);
+    assert_int_equal(gi_light_analytic(&ml, up, down, &eback), 1);
+    assert_true(fabs(eback.y - expect) < 1e-4 * expect);
     gi_emit_free(e);
     free(mats);
     world_free(&w);
