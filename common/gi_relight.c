@@ -58,6 +58,13 @@ struct gi_relight {
     float *gp_e;          /* 3 per gathering point */
     float *gp_t;          /* 9 per gathering point: tangential gradient of incident radiance (NULL: no GDIR) */
     int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
+    /* gi_relight_key_at: photons in a hash grid of cell kcell (CSR by bucket) */
+    float kcell;
+    uint32_t kmask;       /* buckets - 1 */
+    uint32_t *kb_start;   /* kmask + 2 */
+    uint32_t *kb_photon;  /* photon indices, by bucket */
+    float *kpos, *knrm;   /* 3 per photon */
+    uint32_t *klift;      /* per key: the key a ray reads (itself or an ancestor with >= 8 photons) */
     gi_relight_times times;
 };
 
@@ -193,6 +200,11 @@ void gi_relight_free(gi_relight *r)
     free(r->key_rad1);
     free(r->gp_e);
     free(r->gp_t);
+    free(r->kb_start);
+    free(r->kb_photon);
+    free(r->kpos);
+    free(r->knrm);
+    free(r->klift);
     free(r);
 }
 
@@ -632,6 +644,122 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     r->times.hvds = t3 - t2;
     r->times.gather = t4 - t3;
     return 0;
+}
+
+static inline uint32_t kbucket(const gi_relight *r, int64_t x, int64_t y, int64_t z)
+{
+    uint64_t h = (uint64_t)x * 73856093u ^ (uint64_t)y * 19349663u ^ (uint64_t)z * 83492791u;
+    return (uint32_t)(h ^ (h >> 29)) & r->kmask;
+}
+
+static inline int64_t kcoord(const gi_relight *r, float v) { return (int64_t)floorf(v / r->kcell); }
+
+int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
+{
+    if (r->kb_start)
+        return 0;
+    const gi_gip *g = r->gip;
+    const gi_hvds *h = r->h;
+    uint64_t P = g->num_photons;
+    uint32_t K = h->num_keys;
+    if (P == 0 || P >= UINT32_MAX)
+        return gi_status_set(st, GI_EXIT_DATA, "no photons to look keys up in");
+    /* cells holding ~8 photons of a surface: side sqrt(8 A / P) */
+    double area = 0.0;
+    for (size_t t = 0; t < r->s->num_triangles; t++) {
+        const float *v0 = r->s->positions + 3 * (size_t)r->s->indices[3 * t];
+        const float *v1 = r->s->positions + 3 * (size_t)r->s->indices[3 * t + 1];
+        const float *v2 = r->s->positions + 3 * (size_t)r->s->indices[3 * t + 2];
+        gi_vec3 c = gi_cross(gi_sub(gi_v3p(v1), gi_v3p(v0)), gi_sub(gi_v3p(v2), gi_v3p(v0)));
+        area += 0.5 * (double)gi_len(c);
+    }
+    r->kcell = (float)fmax(sqrt(8.0 * area / (double)P), 1e-6);
+    uint32_t nb = 1;
+    while (nb < P && nb < (1u << 30))
+        nb <<= 1;
+    r->kmask = nb - 1;
+    r->kpos = gi_alloc_large(3 * P * sizeof *r->kpos);
+    r->knrm = gi_alloc_large(3 * P * sizeof *r->knrm);
+    r->kb_start = calloc((size_t)nb + 2, sizeof *r->kb_start);
+    r->kb_photon = gi_alloc_large(P * sizeof *r->kb_photon);
+    r->klift = malloc(((size_t)K + 1) * sizeof *r->klift);
+    uint64_t *cnt = calloc((size_t)K + 1, sizeof *cnt);
+    uint32_t *bk = gi_alloc_large(P * sizeof *bk);
+    if (!r->kpos || !r->knrm || !r->kb_start || !r->kb_photon || !r->klift || !cnt || !bk) {
+        free(cnt);
+        free(bk);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the photon grid");
+    }
+#pragma omp parallel for schedule(static) num_threads(r->threads)
+    for (uint64_t p = 0; p < P; p++) {
+        gi_gip_vertex(g, r->s, p, r->kpos + 3 * p, r->knrm + 3 * p);
+        const float *x = r->kpos + 3 * p;
+        bk[p] = kbucket(r, kcoord(r, x[0]), kcoord(r, x[1]), kcoord(r, x[2]));
+    }
+    for (uint64_t p = 0; p < P; p++)
+        r->kb_start[bk[p] + 1]++;
+    for (uint32_t b = 0; b < nb; b++)
+        r->kb_start[b + 1] += r->kb_start[b];
+    uint32_t *fill = malloc(((size_t)nb + 1) * sizeof *fill);
+    if (!fill) {
+        free(cnt);
+        free(bk);
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the photon grid");
+    }
+    memcpy(fill, r->kb_start, ((size_t)nb + 1) * sizeof *fill);
+    for (uint64_t p = 0; p < P; p++)
+        r->kb_photon[fill[bk[p]]++] = (uint32_t)p;
+    free(fill);
+    free(bk);
+    /* photons under each key (parents after children, as in set_lights),
+     * then the key each one lifts to */
+    for (uint64_t p = 0; p < P; p++)
+        if (h->photon_key[p] != GI_HVDS_NO_KEY)
+            cnt[h->photon_key[p]]++;
+    for (uint32_t k = 0; k < K; k++)
+        if (h->key_parent[k] != GI_HVDS_NO_KEY)
+            cnt[h->key_parent[k]] += cnt[k];
+    for (uint32_t k = 0; k < K; k++) {
+        uint32_t q = k;
+        while (cnt[q] < 8 && h->key_parent[q] != GI_HVDS_NO_KEY && h->key_scale[h->key_parent[q]] > 0.0f)
+            q = h->key_parent[q];
+        r->klift[k] = q;
+    }
+    free(cnt);
+    return 0;
+}
+
+uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3])
+{
+    if (!r->kb_start)
+        return GI_HVDS_NO_KEY;
+    int64_t cx = kcoord(r, p[0]), cy = kcoord(r, p[1]), cz = kcoord(r, p[2]);
+    float best = r->kcell * r->kcell;
+    uint32_t bp = UINT32_MAX;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                int64_t x = cx + dx, y = cy + dy, z = cz + dz;
+                uint32_t b = kbucket(r, x, y, z);
+                for (uint32_t j = r->kb_start[b]; j < r->kb_start[b + 1]; j++) {
+                    uint32_t q = r->kb_photon[j];
+                    const float *a = r->kpos + 3 * (size_t)q, *an = r->knrm + 3 * (size_t)q;
+                    if (kcoord(r, a[0]) != x || kcoord(r, a[1]) != y || kcoord(r, a[2]) != z)
+                        continue; /* another cell in the bucket */
+                    if (an[0] * n[0] + an[1] * n[1] + an[2] * n[2] < 0.7071f)
+                        continue;
+                    float d0 = a[0] - p[0], d1 = a[1] - p[1], d2 = a[2] - p[2];
+                    float d = d0 * d0 + d1 * d1 + d2 * d2;
+                    if (d < best) {
+                        best = d;
+                        bp = q;
+                    }
+                }
+            }
+    if (bp == UINT32_MAX)
+        return GI_HVDS_NO_KEY;
+    uint32_t k = r->h->photon_key[bp];
+    return k == GI_HVDS_NO_KEY ? k : r->klift[k];
 }
 
 const float *gi_relight_gpoint_irradiance(const gi_relight *r) { return r->gp_e; }

@@ -58,6 +58,16 @@ const float *gi_relight_gpoint_irradiance(const gi_relight *r);
 const float *gi_relight_gpoint_gradient(const gi_relight *r);
 /* Flux (RGB) accumulated in each key (after set_lights). */
 const float *gi_relight_key_flux(const gi_relight *r);
+/* Ready gi_relight_key_at: a hash grid over the photon vertices (built once,
+ * ~100 ms per million photons). Not thread-safe; 0 or a GI_EXIT_* code. */
+int gi_relight_prepare_keys(gi_relight *r, gi_status *st);
+/* The key whose radiance, key_flux * key_scale (cd/m^2), a ray hitting the
+ * surface at p (unit normal n, facing the ray) reads: that of the nearest
+ * photon vertex within one grid cell whose normal is within 45 degrees, lifted
+ * to the nearest ancestor holding at least 8 photons, as gi-hvds does for
+ * gathering rays. GI_HVDS_NO_KEY when none. Thread-safe after
+ * gi_relight_prepare_keys. */
+uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3]);
 const gi_relight_times *gi_relight_times_last(const gi_relight *r);
 
 #ifdef __cplusplus

@@ -108,6 +108,15 @@ struct gi_shade {
     float *ew;          /* per edge pixel, ne + 1 (the centre last): each sample's share of the pixel, from
                            pcov x pcov coverage rays (NULL: equal shares) */
     float *cind;        /* 3 per sf sample: its indirect light, scratch of the splat */
+    /* glossy gathers of sf samples (opts glossy_rays): per sample gr rays,
+     * each the key it reads and its cosine at the surface; gexp: the Phong
+     * exponent they were drawn for (0: none yet) */
+    uint32_t *gkey;
+    float *gcos, *gexp;
+    float *gterm;       /* 3 per sf sample: its gathered glossy term, scratch of the splat */
+    uint8_t *gdo;       /* per sf sample: 1 when gterm holds its term this frame */
+    int gr;
+    size_t cap_gkey, cap_gcos, cap_gexp;
     /* capacities (elements) of the per-view arrays: a camera move reuses
      * them, since fresh pages cost a fault each (~30% of a camera move) */
     size_t cap_px, cap_sf, cap_eidx, cap_epix, cap_esf, cap_esrc, cap_ehard, cap_rec, cap_erec, cap_cind, cap_svalid, cap_ew;
@@ -145,6 +154,7 @@ void gi_shade_opts_default(gi_shade_opts *o)
     o->direct = 1;
     o->indirect = 1;
     o->seed = 1;
+    o->glossy_rays = 36;
 }
 
 static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
@@ -344,6 +354,11 @@ void gi_shade_free(gi_shade *sh)
     free(sh->ehard);
     free(sh->ew);
     free(sh->svalid);
+    free(sh->gkey);
+    free(sh->gcos);
+    free(sh->gexp);
+    free(sh->gterm);
+    free(sh->gdo);
     free(sh->cind);
     free_xsf(sh);
     for (int i = 0; i < GI_SHADE_DCACHE; i++) {
@@ -1038,6 +1053,8 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     sh->pcam = *cam;
     sh->valid = 1;
     sh->view_id++; /* every cached direct light is stale */
+    if (sh->gexp)
+        memset(sh->gexp, 0, sh->cap_gexp * sizeof *sh->gexp); /* the glossy gathers too */
     return 0;
 }
 
@@ -1354,7 +1371,7 @@ static void light_samples(sbatch *b, const ssurf *const *samp, const uint64_t *i
  * lobe integrated against incident radiance linear in direction
  * (lobe_tables), b_t from the gathering points' gradients (gpt, NULL: 0). */
 static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const gi_material *mats, const float *gpe,
-                                      const float *gpt)
+                                      const float *gpt, const gi_vec3 *gg)
 {
     const gi_material *m = &mats[sf->material];
     float e[3] = {0, 0, 0}, tg[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
@@ -1374,7 +1391,9 @@ static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const
     }
     gi_vec3 E = gi_scale(gi_v3p(e), GI_INV_PIf);
     gi_vec3 out = gi_mul(b.kd, E);
-    if (glossy) {
+    if (glossy && gg) {
+        out = gi_add(out, gi_mul(b.ks, *gg)); /* the gathered lobe */
+    } else if (glossy) {
         gi_vec3 n = gi_v3p(sf->ns), wo = gi_v3p(sf->wo);
         float co = gi_dot(n, wo);
         float A, B;
@@ -1395,6 +1414,77 @@ static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const
     return out;
 }
 
+/* The glossy gather of sample sf (index i): sh->gr rays from its Phong lobe
+ * (exponent ex), stratified, each traced to the surface it hits and mapped to
+ * a key by o->key_at; rays below the surface or into nothing read no key. */
+static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, float ex, const gi_shade_opts *o)
+{
+    const int gr = sh->gr, k = (int)ceilf(sqrtf((float)gr));
+    uint32_t *gk = sh->gkey + i * (size_t)gr;
+    float *gc = sh->gcos + i * (size_t)gr;
+    gi_vec3 n = gi_v3p(sf->ns), ng = gi_v3p(sf->ng), wo = gi_v3p(sf->wo), p = gi_v3p(sf->p);
+    gi_vec3 r = gi_reflect(wo, n), t, bt;
+    gi_basis(r, &t, &bt);
+    gi_rng rng;
+    gi_rng_seed(&rng, o->seed ^ 0x6c055eedull, (uint64_t)i, 0);
+    gi_vec3 ro[16], rd[16];
+    gi_hit hit[16];
+    uint8_t found[16];
+    int slot[16], nq = 0;
+    for (int j = 0; j < gr; j++) {
+        gk[j] = GI_HVDS_NO_KEY;
+        gc[j] = 0.0f;
+        float u1 = ((float)(j % k) + gi_rng_float(&rng)) / (float)k;
+        float u2 = ((float)(j / k % k) + gi_rng_float(&rng)) / (float)k;
+        float ca = powf(u1, 1.0f / (ex + 1.0f)), sa = sqrtf(fmaxf(0.0f, 1.0f - ca * ca));
+        float phi = 2.0f * GI_PIf * u2;
+        gi_vec3 d = gi_norm(gi_to_world(gi_v3(sa * cosf(phi), sa * sinf(phi), ca), t, bt, r));
+        float cosi = gi_dot(n, d);
+        if (cosi > 0.0f && gi_dot(ng, d) > 0.0f) {
+            gc[j] = cosi;
+            ro[nq] = gi_rt_offset(p, ng, d);
+            rd[nq] = d;
+            slot[nq++] = j;
+        }
+        if (nq == 16 || (j == gr - 1 && nq > 0)) {
+            gi_rt_intersect_n(sh->rt, nq, ro, rd, 0.0f, hit, found);
+            for (int q = 0; q < nq; q++) {
+                if (!found[q])
+                    continue;
+                gi_surface hs;
+                gi_rt_surface(sh->rt, &hit[q], &hs);
+                /* the side the ray arrives on */
+                gi_vec3 hn = gi_dot(hs.ng, rd[q]) < 0.0f ? hs.ng : gi_neg(hs.ng);
+                gi_vec3 hsn = gi_dot(hs.ns, hn) < 0.0f ? gi_neg(hs.ns) : hs.ns;
+                float hp[3] = {hs.p.x, hs.p.y, hs.p.z}, hh[3] = {hsn.x, hsn.y, hsn.z};
+                gk[slot[q]] = o->key_at(o->key_ctx, hp, hh);
+            }
+            nq = 0;
+        }
+    }
+    sh->gexp[i] = ex;
+}
+
+/* The lobe's reflection of the radiance the gather of sample i reads, per
+ * unit ks: (n+2)/(n+1) times the mean of L cos over the rays. */
+static gi_vec3 glossy_term(const gi_shade *sh, size_t i, const float *kflux)
+{
+    const uint32_t *gk = sh->gkey + i * (size_t)sh->gr;
+    const float *gc = sh->gcos + i * (size_t)sh->gr;
+    double a[3] = {0, 0, 0};
+    for (int r = 0; r < sh->gr; r++) {
+        uint32_t k = gk[r];
+        if (k == GI_HVDS_NO_KEY)
+            continue;
+        double c = (double)gc[r] * sh->h->key_scale[k];
+        a[0] += c * kflux[3 * (size_t)k];
+        a[1] += c * kflux[3 * (size_t)k + 1];
+        a[2] += c * kflux[3 * (size_t)k + 2];
+    }
+    double ex = sh->gexp[i], sc = (ex + 2.0) / ((ex + 1.0) * (double)sh->gr);
+    return gi_v3((float)(a[0] * sc), (float)(a[1] * sc), (float)(a[2] * sc));
+}
+
 /* One sample's indirect light: from its packed record when its material
  * is diffuse (the common case), else from its ssurf. */
 static inline gi_vec3 splat_rec(const gi_shade *sh, const srec *r, const ssurf *sf, const uint8_t *glossy,
@@ -1403,7 +1493,7 @@ static inline gi_vec3 splat_rec(const gi_shade *sh, const srec *r, const ssurf *
     if (r->material == UINT32_MAX)
         return gi_v3(0, 0, 0);
     if (glossy[r->material])
-        return indirect_sample(sh, sf, mats, gpe, gpt);
+        return indirect_sample(sh, sf, mats, gpe, gpt, NULL);
     const gi_material *m = &mats[r->material];
     float e[3] = {0, 0, 0};
     uint32_t wsum = 0;
@@ -2011,9 +2101,94 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             /* ks > 0 for some base colour: a glossy lobe whatever the texel */
             glossy[m] = b.exponent > 0.0f;
         }
+        int any_glossy = 0;
+        for (size_t m = 0; m < nm; m++)
+            any_glossy |= glossy[m];
+        int gather = any_glossy && o->glossy_rays > 0 && o->key_at && o->key_flux;
+        if (gather && sh->gr != o->glossy_rays) {
+            sh->gr = o->glossy_rays;
+            sh->cap_gkey = sh->cap_gcos = sh->cap_gexp = 0; /* other sizes: reallocate */
+            free(sh->gkey);
+            free(sh->gcos);
+            free(sh->gexp);
+            sh->gkey = NULL;
+            sh->gcos = NULL;
+            sh->gexp = NULL;
+        }
+        if (gather && sh->cap_gexp < ns) {
+            free(sh->gkey);
+            free(sh->gcos);
+            free(sh->gexp);
+            free(sh->gterm);
+            free(sh->gdo);
+            sh->gkey = malloc(ns * (size_t)sh->gr * sizeof *sh->gkey);
+            sh->gcos = malloc(ns * (size_t)sh->gr * sizeof *sh->gcos);
+            sh->gexp = calloc(ns, sizeof *sh->gexp);
+            sh->gterm = malloc(3 * ns * sizeof *sh->gterm);
+            sh->gdo = calloc(ns, 1);
+            sh->cap_gkey = sh->cap_gcos = sh->cap_gexp = sh->gexp ? ns : 0;
+            if (!sh->gkey || !sh->gcos || !sh->gexp || !sh->gterm || !sh->gdo) {
+                free(glossy);
+                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
+            }
+        }
+        /* glossy samples: their gathers (traced once per view and exponent),
+         * then the gathered term of each, in gterm */
+        if (gather) {
+#pragma omp parallel num_threads(threads)
+            {
+                gi_rt_thread_init();
+#pragma omp for schedule(dynamic, 256)
+                for (size_t i = 0; i < ns; i++) {
+                    const ssurf *sf = &sh->sf[i];
+                    sh->gdo[i] = 0;
+                    if (sh->rec[i].material == UINT32_MAX || !glossy[sh->rec[i].material] || !sf->valid)
+                        continue;
+                    gi_bsdf b;
+                    gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
+                    if (!(b.exponent > 0.0f))
+                        continue;
+                    if (sh->gexp[i] != b.exponent)
+                        glossy_gather(sh, sf, i, b.exponent, o);
+                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, i, o->key_flux));
+                    sh->gdo[i] = 1;
+                }
+            }
+        }
+        /* each sample's indirect light; a gathered sample averages its term
+         * with those of the 5 x 5 neighbours on its surface (same material,
+         * normals within ~11 degrees, on its plane): 25 times the rays where
+         * the reflection changes slowly, as it does across a glossy lobe */
+        const int S1 = S == 1;
 #pragma omp parallel for schedule(static) num_threads(threads)
         for (size_t i = 0; i < ns; i++) {
-            gi_vec3 v = splat_rec(sh, &sh->rec[i], &sh->sf[i], glossy, mats, gpe, gpt);
+            gi_vec3 v;
+            const ssurf *sf = &sh->sf[i];
+            if (gather && sh->gdo[i]) {
+                gi_vec3 g = gi_v3p(sh->gterm + 3 * i);
+                if (S1) {
+                    int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w), cnt = 1;
+                    float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
+                    for (int dy = -2; dy <= 2; dy++)
+                        for (int dx = -2; dx <= 2; dx++) {
+                            int xx = x + dx, yy = y + dy;
+                            if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= w || yy >= h)
+                                continue;
+                            size_t j = (size_t)yy * (size_t)w + (size_t)xx;
+                            const ssurf *o2 = &sh->sf[j];
+                            if (!sh->gdo[j] || o2->material != sf->material ||
+                                sf->ns[0] * o2->ns[0] + sf->ns[1] * o2->ns[1] + sf->ns[2] * o2->ns[2] < 0.98f ||
+                                discontinuous(sf, o2, pa))
+                                continue;
+                            g = gi_add(g, gi_v3p(sh->gterm + 3 * j));
+                            cnt++;
+                        }
+                    g = gi_scale(g, 1.0f / (float)cnt);
+                }
+                v = indirect_sample(sh, sf, mats, gpe, gpt, &g);
+            } else {
+                v = splat_rec(sh, &sh->rec[i], sf, glossy, mats, gpe, gpt);
+            }
             gi_v3store(sh->cind + 3 * i, v);
         }
 #pragma omp parallel for schedule(static) num_threads(threads)

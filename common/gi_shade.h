@@ -44,6 +44,15 @@ typedef struct gi_shade_opts {
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;
     int threads;
+    /* glossy reflection of indirect light by gathering at the pixel: each
+     * visible glossy sample traces glossy_rays rays from its lobe once per
+     * view and reads the radiance of the keys they hit every frame,
+     * key_flux[k] * key_scale[k]. key_at (NULL: the gathering points' linear
+     * fit instead) maps a hit to its key; key_ctx is its first argument. */
+    int glossy_rays;    /* default 36; 0: off */
+    uint32_t (*key_at)(const void *ctx, const float p[3], const float n[3]);
+    const void *key_ctx;
+    const float *key_flux;
     int no_cache;       /* 1: recompute every light's direct light every frame (tests
                            compare it with the cached path; gi-relight sets it when
                            GI_RELIGHT_NO_CACHE=1) */
