@@ -64,6 +64,7 @@ struct gi_relight {
     uint32_t *kb_start;   /* kmask + 2 */
     uint32_t *kb_photon;  /* photon indices, by bucket */
     float *kpos, *knrm;   /* 3 per photon */
+    uint64_t *kid;        /* per photon: its cell, packed */
     uint32_t *klift;      /* per key: the key a ray reads (itself or an ancestor with >= 8 photons) */
     gi_relight_times times;
 };
@@ -204,6 +205,7 @@ void gi_relight_free(gi_relight *r)
     free(r->kb_photon);
     free(r->kpos);
     free(r->knrm);
+    free(r->kid);
     free(r->klift);
     free(r);
 }
@@ -654,6 +656,11 @@ static inline uint32_t kbucket(const gi_relight *r, int64_t x, int64_t y, int64_
 
 static inline int64_t kcoord(const gi_relight *r, float v) { return (int64_t)floorf(v / r->kcell); }
 
+static inline uint64_t kpack(int64_t x, int64_t y, int64_t z)
+{
+    return ((uint64_t)x & 0x1FFFFF) << 42 | ((uint64_t)y & 0x1FFFFF) << 21 | ((uint64_t)z & 0x1FFFFF);
+}
+
 int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
 {
     if (r->kb_start)
@@ -680,12 +687,13 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
     r->kmask = nb - 1;
     r->kpos = gi_alloc_large(3 * P * sizeof *r->kpos);
     r->knrm = gi_alloc_large(3 * P * sizeof *r->knrm);
+    r->kid = gi_alloc_large(P * sizeof *r->kid);
     r->kb_start = calloc((size_t)nb + 2, sizeof *r->kb_start);
     r->kb_photon = gi_alloc_large(P * sizeof *r->kb_photon);
     r->klift = malloc(((size_t)K + 1) * sizeof *r->klift);
     uint64_t *cnt = calloc((size_t)K + 1, sizeof *cnt);
     uint32_t *bk = gi_alloc_large(P * sizeof *bk);
-    if (!r->kpos || !r->knrm || !r->kb_start || !r->kb_photon || !r->klift || !cnt || !bk) {
+    if (!r->kpos || !r->knrm || !r->kid || !r->kb_start || !r->kb_photon || !r->klift || !cnt || !bk) {
         free(cnt);
         free(bk);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the photon grid");
@@ -694,7 +702,9 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
     for (uint64_t p = 0; p < P; p++) {
         gi_gip_vertex(g, r->s, p, r->kpos + 3 * p, r->knrm + 3 * p);
         const float *x = r->kpos + 3 * p;
-        bk[p] = kbucket(r, kcoord(r, x[0]), kcoord(r, x[1]), kcoord(r, x[2]));
+        int64_t cx = kcoord(r, x[0]), cy = kcoord(r, x[1]), cz = kcoord(r, x[2]);
+        bk[p] = kbucket(r, cx, cy, cz);
+        r->kid[p] = kpack(cx, cy, cz);
     }
     for (uint64_t p = 0; p < P; p++)
         r->kb_start[bk[p] + 1]++;
@@ -729,32 +739,60 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
     return 0;
 }
 
+/* The nearest photon of cell (x, y, z) to p within *best (squared), normal
+ * within 45 degrees of n; *bp its index. */
+static inline void kscan(const gi_relight *r, int64_t x, int64_t y, int64_t z, const float p[3], const float n[3],
+                         float *best, uint32_t *bp)
+{
+    uint32_t b = kbucket(r, x, y, z);
+    uint64_t id = kpack(x, y, z);
+    for (uint32_t j = r->kb_start[b]; j < r->kb_start[b + 1]; j++) {
+        uint32_t q = r->kb_photon[j];
+        if (r->kid[q] != id)
+            continue; /* another cell in the bucket */
+        const float *a = r->kpos + 3 * (size_t)q, *an = r->knrm + 3 * (size_t)q;
+        if (an[0] * n[0] + an[1] * n[1] + an[2] * n[2] < 0.7071f)
+            continue;
+        float d0 = a[0] - p[0], d1 = a[1] - p[1], d2 = a[2] - p[2];
+        float d = d0 * d0 + d1 * d1 + d2 * d2;
+        if (d < *best) {
+            *best = d;
+            *bp = q;
+        }
+    }
+}
+
 uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3])
 {
     if (!r->kb_start)
         return GI_HVDS_NO_KEY;
+    const float c = r->kcell;
     int64_t cx = kcoord(r, p[0]), cy = kcoord(r, p[1]), cz = kcoord(r, p[2]);
-    float best = r->kcell * r->kcell;
+    float best = c * c;
     uint32_t bp = UINT32_MAX;
+    kscan(r, cx, cy, cz, p, n, &best, &bp);
+    /* the neighbours only where they can hold something nearer: the
+     * distance from p to each one's box against the best so far */
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        float base = (float)(a == 0 ? cx : a == 1 ? cy : cz) * c;
+        lo[a] = p[a] - base;           /* to the cell's lower face */
+        hi[a] = base + c - p[a];       /* to its upper face */
+    }
     for (int dz = -1; dz <= 1; dz++)
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
-                int64_t x = cx + dx, y = cy + dy, z = cz + dz;
-                uint32_t b = kbucket(r, x, y, z);
-                for (uint32_t j = r->kb_start[b]; j < r->kb_start[b + 1]; j++) {
-                    uint32_t q = r->kb_photon[j];
-                    const float *a = r->kpos + 3 * (size_t)q, *an = r->knrm + 3 * (size_t)q;
-                    if (kcoord(r, a[0]) != x || kcoord(r, a[1]) != y || kcoord(r, a[2]) != z)
-                        continue; /* another cell in the bucket */
-                    if (an[0] * n[0] + an[1] * n[1] + an[2] * n[2] < 0.7071f)
-                        continue;
-                    float d0 = a[0] - p[0], d1 = a[1] - p[1], d2 = a[2] - p[2];
-                    float d = d0 * d0 + d1 * d1 + d2 * d2;
-                    if (d < best) {
-                        best = d;
-                        bp = q;
-                    }
+                if (!dx && !dy && !dz)
+                    continue;
+                int dd[3] = {dx, dy, dz};
+                float g = 0.0f;
+                for (int a = 0; a < 3; a++) {
+                    float e = dd[a] < 0 ? lo[a] : dd[a] > 0 ? hi[a] : 0.0f;
+                    g += e * e;
                 }
+                if (g >= best)
+                    continue;
+                kscan(r, cx + dx, cy + dy, cz + dz, p, n, &best, &bp);
             }
     if (bp == UINT32_MAX)
         return GI_HVDS_NO_KEY;
