@@ -12,6 +12,7 @@
 #define GI_LIGHT_H
 
 #include "gi_math.h"
+#include "gi_rng.h"
 #include "gi_scene.h"
 
 #ifdef __cplusplus
@@ -31,6 +32,20 @@ typedef struct gi_light_sample {
 /* Sample light l as seen from x. Returns 0 when the light contributes nothing
  * (behind an area light, outside a spot cone, disabled). */
 int gi_light_sample_at(const gi_light *l, gi_vec3 x, float u1, float u2, gi_light_sample *s);
+/* Sample j of k x k stratified over light l as seen from x: (j % k + r1) / k,
+ * (j / k + r2) / k with r1, r2 the next two numbers of rng (drawn even when
+ * the light gives nothing there). Returns what gi_light_sample_at does. */
+static inline int gi_light_sample_stratum(const gi_light *l, gi_vec3 x, int j, int k, gi_rng *rng,
+                                          gi_light_sample *s)
+{
+    float u1 = ((float)(j % k) + gi_rng_float(rng)) / (float)k;
+    float u2 = ((float)(j / k) + gi_rng_float(rng)) / (float)k;
+    return gi_light_sample_at(l, x, u1, u2, s);
+}
+/* Sum over the k x k stratified samples of rng of luminance(value) * cos to
+ * the unit normal n, for those above n's plane: the weight of all samples in
+ * the ratio estimate of visibility (gi_light_analytic). */
+double gi_light_weight_sum(const gi_light *l, gi_vec3 x, gi_vec3 n, int k, gi_rng *rng);
 /* 1 for lights with extent (area, emissive mesh): sampled at several points,
  * soft shadows; 0 for point, spot and directional lights. */
 int gi_light_has_area(const gi_light *l);

@@ -425,27 +425,15 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                     float escale = 0.0f;
                     gi_vec3 ean;
                     if (gi_light_analytic(L, x, nn, &ean) && gi_maxc(ean) > 0.0f) {
-                        double wsum = 0.0;
                         gi_rng_seed(&rng, r->seed, e, l);
-                        for (int j = 0; j < ns; j++) {
-                            float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
-                            float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
-                            gi_light_sample ls;
-                            if (!gi_light_sample_at(L, x, u1, u2, &ls))
-                                continue;
-                            float cosi = gi_dot(nn, ls.wi);
-                            if (cosi > 0.0f)
-                                wsum += gi_luminance(ls.value) * cosi;
-                        }
+                        double wsum = gi_light_weight_sum(L, x, nn, ks, &rng);
                         if (wsum > 0.0)
                             escale = (float)((double)ns / wsum);
                     }
                     gi_rng_seed(&rng, r->seed, e, l);
                     for (int j = 0; j < ns; j++) {
-                        float u1 = ((float)(j % ks) + gi_rng_float(&rng)) / (float)ks;
-                        float u2 = ((float)(j / ks) + gi_rng_float(&rng)) / (float)ks;
                         gi_light_sample ls;
-                        if (!gi_light_sample_at(L, x, u1, u2, &ls))
+                        if (!gi_light_sample_stratum(L, x, j, ks, &rng, &ls))
                             continue;
                         float cosi = gi_dot(nn, ls.wi);
                         if (cosi <= 0.0f)

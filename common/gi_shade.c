@@ -1259,18 +1259,8 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     int analytic = 0;
     gi_vec3 ean;
     if (gi_maxc(bs.kd) > 0.0f && gi_light_analytic(lt, p, nsn, &ean) && gi_maxc(ean) > 0.0f) {
-        double wsum = 0.0;
         gi_rng_seed(&rng, seed, id, l);
-        for (int j = 0; j < nsmp; j++) {
-            float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
-            float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
-            gi_light_sample ls;
-            if (!gi_light_sample_at(lt, p, u1, u2, &ls))
-                continue;
-            float cosi = gi_dot(nsn, ls.wi);
-            if (cosi > 0.0f)
-                wsum += gi_luminance(ls.value) * cosi;
-        }
+        double wsum = gi_light_weight_sum(lt, p, nsn, ka, &rng);
         if (wsum > 0.0) {
             analytic = 1;
             ediff = gi_scale(gi_mul(bs.kd, ean), (float)(GI_INV_PIf * (double)nsmp / wsum));
@@ -1278,10 +1268,8 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     }
     gi_rng_seed(&rng, seed, id, l);
     for (int j = 0; j < nsmp; j++) {
-        float u1 = ((float)(j % ka) + gi_rng_float(&rng)) / (float)ka;
-        float u2 = ((float)(j / ka) + gi_rng_float(&rng)) / (float)ka;
         gi_light_sample ls;
-        if (!gi_light_sample_at(lt, p, u1, u2, &ls))
+        if (!gi_light_sample_stratum(lt, p, j, ka, &rng, &ls))
             continue;
         float cosi = gi_dot(nsn, ls.wi);
         if (cosi <= 0.0f || gi_dot(ng, ls.wi) <= 0.0f)

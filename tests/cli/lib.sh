@@ -45,3 +45,10 @@ check() {
 }
 
 finish() { exit $_fail; }
+# Accuracy tests against long references run in the plain build only.
+skip_under_sanitizers() {
+  if [ "${GI_SANITIZE:-0}" = 1 ]; then
+    echo "# skipped under SANITIZE=1 (references too slow); runs in the plain build"
+    finish
+  fi
+}

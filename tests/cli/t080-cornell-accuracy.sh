@@ -8,10 +8,7 @@
 # sanitizers, where the references would take too long; the same code runs
 # there through the other tests.
 . "$(dirname "$0")/lib.sh"
-if [ "${GI_SANITIZE:-0}" = 1 ]; then
-  echo "# skipped under SANITIZE=1 (references too slow); runs in the plain build"
-  finish
-fi
+skip_under_sanitizers
 S=$TMP/cornell.gltf
 "$BUILD/tools/mkcornell" "$S" 2>/dev/null
 sed 's/^resolution .*/resolution 64 64/' "$GI_ROOT/examples/cornell-box/variants.script" >"$TMP/v.script"

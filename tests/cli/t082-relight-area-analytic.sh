@@ -8,10 +8,7 @@
 # 0.025. Skipped under the sanitizers, where the references would take too
 # long; test_pt_analytic checks the formula itself there.
 . "$(dirname "$0")/lib.sh"
-if [ "${GI_SANITIZE:-0}" = 1 ]; then
-  echo "# skipped under SANITIZE=1 (references too slow); runs in the plain build"
-  finish
-fi
+skip_under_sanitizers
 S=$TMP/cornell.gltf
 "$BUILD/tools/mkcornell" "$S" 2>/dev/null
 cat >"$TMP/v.script" <<'SCRIPT'
