@@ -194,20 +194,6 @@ int gi_light_analytic(const gi_light *l, gi_vec3 x, gi_vec3 n, gi_vec3 *E)
     return 1;
 }
 
-double gi_light_weight_sum(const gi_light *l, gi_vec3 x, gi_vec3 n, int k, gi_rng *rng)
-{
-    double w = 0.0;
-    for (int j = 0; j < k * k; j++) {
-        gi_light_sample ls;
-        if (!gi_light_sample_stratum(l, x, j, k, rng, &ls))
-            continue;
-        float c = gi_dot(n, ls.wi);
-        if (c > 0.0f)
-            w += gi_luminance(ls.value) * c;
-    }
-    return w;
-}
-
 int gi_light_has_area(const gi_light *l)
 {
     return l->type == GI_LIGHT_AREA || l->type == GI_LIGHT_MESH;

@@ -42,10 +42,6 @@ static inline int gi_light_sample_stratum(const gi_light *l, gi_vec3 x, int j, i
     float u2 = ((float)(j / k) + gi_rng_float(rng)) / (float)k;
     return gi_light_sample_at(l, x, u1, u2, s);
 }
-/* Sum over the k x k stratified samples of rng of luminance(value) * cos to
- * the unit normal n, for those above n's plane: the weight of all samples in
- * the ratio estimate of visibility (gi_light_analytic). */
-double gi_light_weight_sum(const gi_light *l, gi_vec3 x, gi_vec3 n, int k, gi_rng *rng);
 /* 1 for lights with extent (area, emissive mesh): sampled at several points,
  * soft shadows; 0 for point, spot and directional lights. */
 int gi_light_has_area(const gi_light *l);

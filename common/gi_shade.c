@@ -1209,7 +1209,7 @@ typedef struct sbatch {
     const gi_rt *rt;
     int n;
     gi_vec3 o[SB_CAP], d[SB_CAP], c[SB_CAP];
-    float t[SB_CAP], ce[SB_CAP];
+    float t[SB_CAP], ce[SB_CAP], wd[SB_CAP];
     float *eacc;        /* NULL, or per slot: sum of the irradiance luminance of the rays that found the light */
     uint32_t idx[SB_CAP];
     uint8_t occ[SB_CAP];
@@ -1255,24 +1255,29 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
      * noisiest. Cornell box, a 0.4 x 0.4 m
      * ceiling panel, 256 x 256 against 2048 spp: nrmse 0.0474 -> 0.0128, with
      * a glossy floor 0.0475 -> 0.0128 (t082) */
-    gi_vec3 ediff = gi_v3(0, 0, 0);
-    int analytic = 0;
-    gi_vec3 ean;
-    if (gi_maxc(bs.kd) > 0.0f && gi_light_analytic(lt, p, nsn, &ean) && gi_maxc(ean) > 0.0f) {
-        gi_rng_seed(&rng, seed, id, l);
-        double wsum = gi_light_weight_sum(lt, p, nsn, ka, &rng);
-        if (wsum > 0.0) {
-            analytic = 1;
-            ediff = gi_scale(gi_mul(bs.kd, ean), (float)(GI_INV_PIf * (double)nsmp / wsum));
-        }
+    gi_vec3 ediff = gi_v3(0, 0, 0), ean;
+    int analytic = nsmp <= SB_CAP && gi_maxc(bs.kd) > 0.0f && gi_light_analytic(lt, p, nsn, &ean) &&
+                   gi_maxc(ean) > 0.0f;
+    if (analytic) {
+        /* this sample's rays in one batch, so that their diffuse parts can
+         * be divided by the weight of all samples once it is known */
+        ediff = gi_scale(gi_mul(bs.kd, ean), GI_INV_PIf * (float)nsmp);
+        if (b->n + nsmp > SB_CAP)
+            sb_flush(b);
     }
+    const int q0 = b->n;
+    double wsum = 0.0;
     gi_rng_seed(&rng, seed, id, l);
     for (int j = 0; j < nsmp; j++) {
         gi_light_sample ls;
         if (!gi_light_sample_stratum(lt, p, j, ka, &rng, &ls))
             continue;
         float cosi = gi_dot(nsn, ls.wi);
-        if (cosi <= 0.0f || gi_dot(ng, ls.wi) <= 0.0f)
+        if (cosi <= 0.0f)
+            continue;
+        float wq = gi_luminance(ls.value) * cosi;
+        wsum += wq;
+        if (gi_dot(ng, ls.wi) <= 0.0f)
             continue;
         gi_vec3 f = gi_bsdf_eval(&bs, nsn, wo, ls.wi);
         if (gi_maxc(f) <= 0.0f)
@@ -1283,17 +1288,18 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         b->o[q] = gi_rt_offset(p, ng, ls.wi);
         b->d[q] = ls.wi;
         b->t[q] = gi_rt_shadow_tmax(p, b->o[q], ls.dist);
-        if (analytic) {
-            /* the sampled glossy lobe, and the diffuse part by its weight */
-            float wq = gi_luminance(ls.value) * cosi;
-            gi_vec3 spec = gi_sub(f, gi_scale(bs.kd, GI_INV_PIf));
-            b->c[q] = gi_madd(gi_scale(gi_mul(spec, ls.value), cosi), ediff, wq);
-        } else {
-            b->c[q] = gi_scale(gi_mul(f, ls.value), cosi);
-        }
-        b->ce[q] = gi_luminance(ls.value) * cosi;
+        /* analytic: the sampled glossy lobe now, the diffuse part's weight
+         * kept for below */
+        b->c[q] = gi_scale(gi_mul(analytic ? gi_sub(f, gi_scale(bs.kd, GI_INV_PIf)) : f, ls.value), cosi);
+        b->wd[q] = wq;
+        b->ce[q] = wq;
         b->idx[q] = slot;
         queued++;
+    }
+    if (analytic && wsum > 0.0) {
+        float inv = (float)(1.0 / wsum);
+        for (int q = q0; q < b->n; q++)
+            b->c[q] = gi_madd(b->c[q], ediff, b->wd[q] * inv);
     }
     return queued;
 }
