@@ -70,7 +70,7 @@ else
   SP_SWEEP="default photons=250000 photons=4000000 rmax-div=64 rmax-div=256 rays=64"
 fi
 # Tool defaults (gi-precompute --help, gi-hvds --help), for the parameter columns.
-DEF_PHOTONS=1000000; DEF_RMAXDIV=128; DEF_RAYS=256; DEF_CELLS=16
+DEF_PHOTONS=1000000; DEF_RMAXDIV=128; DEF_RAYS=auto; DEF_CELLS=16
 # shellcheck disable=SC2034  # read indirectly
 # Paper, Table 1 (ms; GeForce 7800 GTX): T_di T_pe T_hvds T_fg T_splat T_tot T_light T_view T_mat
 PAPER_cornell_box="6,11,11,5,76,109,109,87,1271"
