@@ -19,6 +19,14 @@
  * nothing: irradiance E (lux, RGB, with visibility) and the mean incident
  * direction (exact for point, spot and directional lights). */
 #define GI_RELIGHT_SLOTS GI_RELIGHT_MAX_LIGHTS
+/* Slots whose irradiance buffers are allocated and touched when the relight
+ * is made, within GI_RELIGHT_WARM_BYTES (at least 2): a new light state then
+ * writes into memory already mapped. A first touch costs ~0.5-3.5 ms per MB
+ * on this project's virtual machines, and a fresh 7 MB slot cost Sponza's
+ * light moves ~8 ms each. A new state takes a slot never used before only
+ * when every warm one is needed by its frame. */
+#define GI_RELIGHT_WARM_MAX 8
+#define GI_RELIGHT_WARM_BYTES ((size_t)64 << 20)
 typedef struct light_slot {
     gi_light light;
     float *e;          /* 3 per entry */
@@ -114,6 +122,17 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
         gi_relight_free(r);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %llu photons",
                              (unsigned long long)gip->num_photons);
+    }
+    size_t slot_bytes = (3 * (size_t)gip->num_entries + 3) * sizeof(float);
+    int warm = (int)(GI_RELIGHT_WARM_BYTES / slot_bytes);
+    warm = warm < 2 ? 2 : (warm > GI_RELIGHT_WARM_MAX ? GI_RELIGHT_WARM_MAX : warm);
+    for (int k = 0; k < warm; k++) {
+        if (!(r->slots[k].e = gi_alloc_large(slot_bytes))) {
+            gi_relight_free(r);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %d light caches of %u entry points", warm,
+                                 gip->num_entries);
+        }
+        memset(r->slots[k].e, 0, slot_bytes); /* touched now (calloc would leave fresh pages unmapped) */
     }
     for (uint32_t e = 0; e < gip->num_entries; e++) {
         uint64_t v0 = gip->path_start[e];
@@ -349,18 +368,21 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             sl->used = 2;
         }
         if (found < 0) {
-            /* a free slot, or the least recently used one not needed by this frame */
+            /* a slot with buffers not needed by this frame (never used
+             * first, then the least recently used), else a new one */
             uint64_t oldest = UINT64_MAX;
             for (int k = 0; k < GI_RELIGHT_SLOTS; k++) {
-                if (!r->slots[k].used) {
-                    found = k;
-                    break;
-                }
-                if (r->slots[k].last_use < oldest && r->slots[k].last_use != r->frame) {
-                    oldest = r->slots[k].last_use;
+                if (!r->slots[k].e || r->slots[k].last_use == r->frame)
+                    continue;
+                uint64_t age = r->slots[k].used ? r->slots[k].last_use : 0;
+                if (found < 0 || age < oldest) {
+                    oldest = age;
                     found = k;
                 }
             }
+            for (int k = 0; k < GI_RELIGHT_SLOTS && found < 0; k++)
+                if (!r->slots[k].e)
+                    found = k;
             light_slot *sl = &r->slots[found];
             /* the directions only while some material is glossy: a diffuse
              * entry needs none, and a new buffer costs its first touch (on
