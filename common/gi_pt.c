@@ -341,17 +341,24 @@ gi_vec3 gi_pt_irradiance(const gi_pt *pt, gi_vec3 x, gi_vec3 n, gi_sampler *rng)
     return gi_scale(L, GI_PIf);
 }
 
+void gi_camera_frame_init(gi_camera_frame *cf, const gi_camera *cam, int w, int h)
+{
+    cf->f = gi_norm(gi_v3p(cam->forward));
+    gi_vec3 up = gi_norm(gi_v3p(cam->up));
+    cf->r = gi_norm(gi_cross(cf->f, up));
+    cf->up = gi_cross(cf->r, cf->f);
+    cf->th = tanf(0.5f * cam->yfov);
+    cf->aspect = (float)w / (float)h;
+    cf->w = (float)w;
+    cf->h = (float)h;
+    cf->o = gi_v3p(cam->position);
+}
+
 void gi_camera_ray(const gi_camera *cam, int w, int h, float px, float py, gi_vec3 *o, gi_vec3 *d)
 {
-    gi_vec3 f = gi_norm(gi_v3p(cam->forward)), up = gi_norm(gi_v3p(cam->up));
-    gi_vec3 r = gi_norm(gi_cross(f, up));
-    up = gi_cross(r, f);
-    float th = tanf(0.5f * cam->yfov);
-    float aspect = (float)w / (float)h;
-    float sx = (2.0f * px / (float)w - 1.0f) * th * aspect;
-    float sy = (1.0f - 2.0f * py / (float)h) * th;
-    *o = gi_v3p(cam->position);
-    *d = gi_norm(gi_add(f, gi_add(gi_scale(r, sx), gi_scale(up, sy))));
+    gi_camera_frame cf;
+    gi_camera_frame_init(&cf, cam, w, h);
+    gi_camera_frame_ray(&cf, px, py, o, d);
 }
 
 int gi_pt_render(const gi_pt *pt, const gi_camera *cam, int w, int h, int spp,

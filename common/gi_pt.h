@@ -72,6 +72,22 @@ int gi_pt_sensors(const gi_pt *pt, const float *points, size_t n, int spp, doubl
 /* Camera ray through pixel position (px, py) in [0,w) x [0,h). */
 void gi_camera_ray(const gi_camera *cam, int w, int h, float px, float py, gi_vec3 *o, gi_vec3 *d);
 
+/* The same rays with the camera's basis computed once: gi_camera_frame_ray
+ * gives exactly gi_camera_ray's result (the same operations in the same
+ * order), without its three square roots and tangent per ray. */
+typedef struct gi_camera_frame {
+    gi_vec3 o, f, r, up;
+    float th, aspect, w, h;
+} gi_camera_frame;
+void gi_camera_frame_init(gi_camera_frame *cf, const gi_camera *cam, int w, int h);
+static inline void gi_camera_frame_ray(const gi_camera_frame *cf, float px, float py, gi_vec3 *o, gi_vec3 *d)
+{
+    float sx = (2.0f * px / cf->w - 1.0f) * cf->th * cf->aspect;
+    float sy = (1.0f - 2.0f * py / cf->h) * cf->th;
+    *o = cf->o;
+    *d = gi_norm(gi_add(cf->f, gi_add(gi_scale(cf->r, sx), gi_scale(cf->up, sy))));
+}
+
 #ifdef __cplusplus
 }
 #endif
