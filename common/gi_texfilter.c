@@ -125,13 +125,31 @@ int gi_texfilter_new(const gi_scene *s, gi_texfilter **out, gi_status *st)
     return 0;
 }
 
-/* F and G (see pyramid) of row `row` at x, extended beyond [0, w) by the
- * s wrap mode. */
-static void row_FG(const gi_texture *t, const double *pre, int row, double x, double F[3], double G[3])
+/* F and G (see pyramid) of the row whose sums start at pr, at x in [0, w]:
+ * inside the texture every wrap mode agrees, and this is all the lookups of a
+ * footprint that lies in one period (see parallelogram_mean). A cut's x may
+ * round a few ulps past [0, w]: the edge texel is extrapolated there. */
+static inline void row_FG_in(const double *pr, int w, double x, double F[3], double G[3])
+{
+    int i = x > 0.0 ? (int)x : 0;
+    if (i > w - 1)
+        i = w - 1;
+    double fr = x - (double)i;
+    /* the texel's value is F's step over it: the texels themselves are
+     * another array, and reading them cost another cache miss per lookup */
+    const double *p = pr + 6 * (size_t)i;
+    for (int c = 0; c < 3; c++) {
+        double Fl = p[c], v = p[6 + c] - Fl;
+        F[c] = Fl + fr * v;
+        G[c] = p[3 + c] + Fl * fr + 0.5 * fr * fr * v;
+    }
+}
+
+/* F and G of the row with sums pr and texels tx at any x, extended beyond
+ * [0, w) by the s wrap mode. */
+static void row_FG(const gi_texture *t, const double *pr, const float *tx, double x, double F[3], double G[3])
 {
     const int w = t->width;
-    const double *pr = pre + (size_t)row * (size_t)(w + 1) * 6;
-    const float *tx = t->rgba + (size_t)row * (size_t)w * 4;
     if (t->wrap_s == GI_WRAP_CLAMP && (x <= 0.0 || x >= (double)w)) {
         /* constant edge texels continue outside */
         if (x <= 0.0) {
@@ -160,24 +178,17 @@ static void row_FG(const gi_texture *t, const double *pre, int row, double x, do
     }
     int flip = mirror && xf >= (double)w; /* second half of a mirror period */
     double xi = flip ? 2.0 * w - xf : xf;
-    int i = (int)xi;
-    if (i >= w)
-        i = w - 1;
-    if (i < 0)
-        i = 0;
-    double fr = xi - (double)i;
-    /* the texel's value is F's step over it: the texels themselves are
-     * another array, and reading them cost another cache miss per lookup */
     if (!mirror && m == 0.0) {
         /* the common case, in the first period: the row's totals at its end
          * (another cache line) are not needed */
-        for (int c = 0; c < 3; c++) {
-            double Fl = pr[6 * i + c], v = pr[6 * (i + 1) + c] - Fl;
-            F[c] = Fl + fr * v;
-            G[c] = pr[6 * i + 3 + c] + Fl * fr + 0.5 * fr * fr * v;
-        }
+        row_FG_in(pr, w, xi, F, G);
         return;
     }
+    /* (NaN x: i = 0, and F and G are NaN) */
+    int i = xi > 0.0 ? (int)xi : 0;
+    if (i > w - 1)
+        i = w - 1;
+    double fr = xi - (double)i;
     for (int c = 0; c < 3; c++) {
         double T = pr[6 * w + c], Gw = pr[6 * w + 3 + c], v = pr[6 * (i + 1) + c] - pr[6 * i + c];
         double Fi = pr[6 * i + c] + fr * v;
@@ -197,110 +208,261 @@ static void row_FG(const gi_texture *t, const double *pre, int row, double x, do
     }
 }
 
-/* Wrap a row index by the texture's t mode. */
-static int wrap_row(int y, int h, int mode)
+/* Wrap row yr (an integer) by the texture's t mode. */
+static int wrap_row(double yr, int h, int mode)
 {
+    if (yr >= 0.0 && yr < (double)h)
+        return (int)yr; /* inside: the common case, no division */
     if (mode == GI_WRAP_CLAMP)
-        return y < 0 ? 0 : (y >= h ? h - 1 : y);
-    if (mode == GI_WRAP_MIRROR) {
-        int p = 2 * h, m = y % p;
-        if (m < 0)
-            m += p;
-        return m < h ? m : p - 1 - m;
-    }
-    int m = y % h;
-    return m < 0 ? m + h : m;
+        return yr < 0.0 ? 0 : h - 1;
+    double p = mode == GI_WRAP_MIRROR ? 2.0 * h : (double)h;
+    double m = fmod(yr, p); /* exact, and no int overflow for a far-away row */
+    if (m < 0.0)
+        m += p;
+    int r = (int)m;
+    return r < h ? r : 2 * h - 1 - r;
+}
+
+/* The parallelogram s a + t b, |s|, |t| <= 1/2, as two chains of edges from
+ * its bottom vertex to its top one, for the x extent at a height y. */
+typedef struct pgram {
+    double a[2], b[2], inv[2]; /* for x_extent: the edges, 1 / a_y and 1 / b_y */
+    double hy;                 /* the vertices' y: -hy, vy[1], vy[2], hy */
+    double vy[4];              /* sorted */
+    double tol;                /* a y closer than this to a vertex's takes x_extent */
+    int chains;                /* 0 with a (nearly) horizontal edge: x_extent only */
+    double bx;                 /* the bottom vertex's x */
+    double lx, ly, rx, ry;     /* the middle vertex of the left chain and of the right one */
+    double s1, s2;             /* dx/dy along the left chain's lower and upper edge (the right chain's upper
+                                  and lower: opposite edges are parallel) */
+} pgram;
+
+static void pgram_init(pgram *g, const double a[2], const double b[2])
+{
+    g->a[0] = a[0];
+    g->a[1] = a[1];
+    g->b[0] = b[0];
+    g->b[1] = b[1];
+    /* 1 / a_y and 1 / b_y for x_extent: a division there per edge and cut was
+     * most of the filter's time */
+    g->inv[0] = fabs(a[1]) < 1e-12 ? 0.0 : 1.0 / a[1];
+    g->inv[1] = fabs(b[1]) < 1e-12 ? 0.0 : 1.0 / b[1];
+    /* the edges pointing up */
+    double ua[2] = {a[1] < 0.0 ? -a[0] : a[0], fabs(a[1])}, ub[2] = {b[1] < 0.0 ? -b[0] : b[0], fabs(b[1])};
+    g->hy = 0.5 * (ua[1] + ub[1]);
+    double m = 0.5 * fabs(ua[1] - ub[1]);
+    g->vy[0] = -g->hy;
+    g->vy[1] = -m;
+    g->vy[2] = m;
+    g->vy[3] = g->hy;
+    /* x_extent takes an edge up to 1e-9 of its length past its ends, and
+     * rounds: near a vertex the two may differ, anywhere else both cut the
+     * same two edges */
+    g->tol = 4e-9 * (ua[1] + ub[1]);
+    g->chains = ua[1] >= 1e-12 && ub[1] >= 1e-12;
+    /* from the bottom vertex -(ua + ub) / 2 the left chain goes up the edge
+     * that turns counterclockwise from the other */
+    int ub_left = ua[0] * ub[1] - ua[1] * ub[0] > 0.0;
+    const double *dl = ub_left ? ub : ua, *dr = ub_left ? ua : ub;
+    g->bx = -0.5 * (ua[0] + ub[0]);
+    g->lx = 0.5 * (dl[0] - dr[0]);
+    g->ly = 0.5 * (dl[1] - dr[1]);
+    g->rx = -g->lx;
+    g->ry = -g->ly;
+    g->s1 = dl[1] > 0.0 ? dl[0] / dl[1] : 0.0;
+    g->s2 = dr[1] > 0.0 ? dr[0] / dr[1] : 0.0;
 }
 
 /* x extent {min, max} of {s a + t b : s a_y + t b_y = ym, |s|, |t| <= 1/2};
  * {+inf, -inf} when the line misses the parallelogram. */
-static void x_extent(const double a[2], const double b[2], const double inv[2], double ym, double out[2])
+static void x_extent(const pgram *g, double ym, double out[2])
 {
-    out[0] = INFINITY;
-    out[1] = -INFINITY;
+    double lo = INFINITY, hi = -INFINITY;
     for (int e = 0; e < 4; e++) {
         double fixed = (e & 1) ? 0.5 : -0.5;
-        const double *pf = e < 2 ? a : b, *po = e < 2 ? b : a; /* pf's parameter is fixed */
+        const double *pf = e < 2 ? g->a : g->b, *po = e < 2 ? g->b : g->a; /* pf's parameter is fixed */
         if (fabs(po[1]) < 1e-12)
             continue;
-        double other = (ym - fixed * pf[1]) * inv[e < 2 ? 1 : 0];
+        double other = (ym - fixed * pf[1]) * g->inv[e < 2 ? 1 : 0];
         if (other < -0.5 - 1e-9 || other > 0.5 + 1e-9)
             continue;
         double xv = fixed * pf[0] + other * po[0];
-        out[0] = fmin(out[0], xv);
-        out[1] = fmax(out[1], xv);
+        /* (not fmin and fmax: library calls at -O2, 4% of the filter) */
+        lo = xv < lo ? xv : lo;
+        hi = xv > hi ? xv : hi;
     }
+    out[0] = lo;
+    out[1] = hi;
 }
+
+/* The x extent at height yy (relative to the centre) where a row's piece
+ * starts (first) or ends. Returns 0 when it had to nudge yy (then the extent
+ * depends on first). */
+static int cut_extent(const pgram *g, double yy, int first, double xe[2])
+{
+    if (g->chains && yy - g->vy[0] > g->tol && g->vy[3] - yy > g->tol && fabs(yy - g->vy[1]) > g->tol &&
+        fabs(yy - g->vy[2]) > g->tol) {
+        /* away from the vertices (the cuts at row boundaries, most of them):
+         * one edge of each chain, no tests */
+        xe[0] = yy < g->ly ? g->bx + (yy + g->hy) * g->s1 : g->lx + (yy - g->ly) * g->s2;
+        xe[1] = yy < g->ry ? g->bx + (yy + g->hy) * g->s2 : g->rx + (yy - g->ry) * g->s1;
+        return 1;
+    }
+    x_extent(g, yy, xe);
+    if (xe[1] >= xe[0])
+        return 1;
+    /* at the parallelogram's top or bottom vertex rounding may miss it:
+     * nudge inside */
+    x_extent(g, yy + (first ? 1e-9 : -1e-9) * (1.0 + fabs(g->hy)), xe);
+    if (!(xe[1] >= xe[0]))
+        xe[0] = xe[1] = 0.5 * (xe[0] + xe[1]);
+    if (!isfinite(xe[0]))
+        xe[0] = xe[1] = 0.0;
+    return 0;
+}
+
+/* A row's cuts (at most its two ends and the two middle vertices): y
+ * (absolute) and the extent's ends there (relative to the centre). */
+typedef struct rowcuts {
+    int nc;
+    const double *pr; /* the row's F and G */
+    const float *tx;  /* its texels */
+    double y[4], xe[4][2];
+} rowcuts;
+
+#define GI_TEXF_CHUNK 8 /* rows whose cuts are found (and lookups prefetched) before the first lookup */
 
 /* Exact average of a (piecewise constant) level over the parallelogram
  * c + s a + t b, s, t in [-1/2, 1/2], in texel units: row by row, cut at the
  * parallelogram's vertices, so that on each piece both ends of the row's
- * x extent move linearly and edge_integral is exact. Returns 0 when the
- * parallelogram spans more than maxrows rows. */
+ * x extent move linearly and the integral of F along an end is exact.
+ * Returns 0 when the parallelogram spans more than maxrows rows. */
 static int parallelogram_mean(const gi_texture *t, const double *pre, const double c[2], const double a[2],
                               const double b[2], int maxrows, float rgba[4])
 {
     double hy = 0.5 * (fabs(a[1]) + fabs(b[1]));
     double y0 = c[1] - hy, y1 = c[1] + hy;
-    if (floor(y1) - floor(y0) + 1.0 > (double)maxrows)
+    double rows = floor(y1) - floor(y0) + 1.0;
+    if (rows > (double)maxrows)
         return 0;
     double area = fabs(a[0] * b[1] - a[1] * b[0]);
     if (!(area > 0.0))
         return 0;
-    double vy[4] = {c[1] + 0.5 * (a[1] + b[1]), c[1] + 0.5 * (a[1] - b[1]), c[1] - 0.5 * (a[1] - b[1]),
-                    c[1] - 0.5 * (a[1] + b[1])};
-    for (int i = 1; i < 4; i++) /* sort */
-        for (int j = i; j > 0 && vy[j] < vy[j - 1]; j--) {
-            double tmp = vy[j];
-            vy[j] = vy[j - 1];
-            vy[j - 1] = tmp;
-        }
+    /* (rows bounds the loop where yr + 1 == yr, at |y| > 2^53; NaN: none) */
+    const int nrows = rows >= 1.0 ? (int)rows : 0;
+    const int w = t->width, h = t->height;
+    pgram g;
+    pgram_init(&g, a, b);
+    /* the middle vertices' y, the only ones that can fall inside a row (the
+     * same sums as the vertices c + (+-a +- b) / 2) */
+    const double vm[2] = {c[1] + g.vy[1], c[1] + g.vy[2]};
+    /* A footprint inside [0, w] of one period takes row_FG_in for every
+     * lookup, with the centre shifted by whole periods of a repeat or mirror
+     * wrap: the mean is the same. On Sponza 98% of footprints are (56% in
+     * the first period, 43% in another: its walls tile their textures). The
+     * shift also keeps the sums small: far from the first period row_FG's
+     * m GP + TP (...) terms cost up to 2e-4 in relative error (uv ~ 50 on a
+     * 2048-texel row, measured against the same code in long double). */
+    double hx = 0.5 * (fabs(a[0]) + fabs(b[0])), cx = c[0];
+    int inside;
+    if (t->wrap_s == GI_WRAP_CLAMP) {
+        inside = cx - hx >= 0.0 && cx + hx <= (double)w;
+    } else {
+        double P = t->wrap_s == GI_WRAP_MIRROR ? 2.0 * w : (double)w;
+        double sh = cx - hx >= 0.0 && cx - hx < P ? 0.0 : P * floor((cx - hx) / P);
+        inside = cx - sh + hx <= (double)w; /* (false for a NaN centre) */
+        if (inside)
+            cx -= sh;
+    }
     double acc[3] = {0, 0, 0};
-    /* 1 / a_y and 1 / b_y for x_extent: a division there per edge and cut was
-     * most of the filter's time */
-    const double inv[2] = {fabs(a[1]) < 1e-12 ? 0.0 : 1.0 / a[1], fabs(b[1]) < 1e-12 ? 0.0 : 1.0 / b[1]};
-    for (double yr = floor(y0); yr < y1; yr += 1.0) {
-        int row = wrap_row((int)yr, t->height, t->wrap_t);
-        double cuts[6];
-        int nc = 0;
-        cuts[nc++] = fmax(yr, y0);
-        for (int i = 0; i < 4; i++)
-            if (vy[i] > cuts[0] && vy[i] < fmin(yr + 1.0, y1))
-                cuts[nc++] = vy[i];
-        cuts[nc++] = fmin(yr + 1.0, y1);
-        /* the extent's ends at every cut (continuous in y: the parallelogram
-         * is convex), with F and G there, shared by the pieces on both sides */
-        double xe[6][2], F[6][2][3], G[6][2][3];
-        for (int j = 0; j < nc; j++) {
-            double yy = cuts[j] - c[1];
-            x_extent(a, b, inv, yy, xe[j]);
-            if (!(xe[j][1] >= xe[j][0])) {
-                /* at the parallelogram's top or bottom vertex rounding may
-                 * miss it: nudge inside */
-                x_extent(a, b, inv, yy + (j == 0 ? 1e-9 : -1e-9) * (1.0 + fabs(hy)), xe[j]);
-                if (!(xe[j][1] >= xe[j][0]))
-                    xe[j][0] = xe[j][1] = 0.5 * (xe[j][0] + xe[j][1]);
-                if (!isfinite(xe[j][0]))
-                    xe[j][0] = xe[j][1] = 0.0;
-            }
-            for (int side = 0; side < 2; side++)
-                row_FG(t, pre, row, c[0] + xe[j][side], F[j][side], G[j][side]);
-        }
-        for (int j = 0; j + 1 < nc; j++) {
-            double h = cuts[j + 1] - cuts[j];
-            if (h <= 0.0)
-                continue;
-            for (int side = 0; side < 2; side++) {
-                /* integral over the piece of F at the end moving linearly from
-                 * x0 to x1: (G(x1) - G(x0)) / slope; trapezoid when it barely moves */
-                double x0 = xe[j][side], x1 = xe[j + 1][side], sg = side ? 1.0 : -1.0;
-                if (fabs(x1 - x0) < 1e-6 * (1.0 + fabs(x0 + c[0]))) {
-                    for (int k = 0; k < 3; k++)
-                        acc[k] += sg * 0.5 * (F[j][side][k] + F[j + 1][side][k]) * h;
+    rowcuts rc[GI_TEXF_CHUNK];
+    double yr = floor(y0);
+    int done = 0;
+    /* the extent at the last row's end, shared with the next row's start */
+    double xe_end[2] = {0, 0};
+    int end_ok = 0;
+    while (done < nrows && yr < y1) {
+        /* pass 1: the cuts and their extents (arithmetic only), and every
+         * lookup's cache lines asked for. Each row is other cache lines, and
+         * they miss: the filter's time was mostly waiting for them one by
+         * one. Asked for together the misses overlap. On Sponza's footprints
+         * (gi-relight camera moves, replayed one thread): 1.06 us per
+         * footprint before, 0.67 with the arithmetic below alone, 0.40 with
+         * the prefetches (shuffled, so that no lines are left from the
+         * previous footprint: 2.2 us, 1.6, 0.7). */
+        int nr = 0;
+        for (; nr < GI_TEXF_CHUNK && done < nrows && yr < y1; nr++, done++, yr += 1.0) {
+            rowcuts *r = &rc[nr];
+            int row = wrap_row(yr, h, t->wrap_t);
+            r->pr = pre + (size_t)row * (size_t)(w + 1) * 6;
+            r->tx = t->rgba + (size_t)row * (size_t)w * 4;
+            double ys = yr > y0 ? yr : y0, ye = yr + 1.0 < y1 ? yr + 1.0 : y1; /* (fmax, fmin: calls) */
+            int n = 0;
+            r->y[n++] = ys;
+            for (int i = 0; i < 2; i++)
+                if (vm[i] > ys && vm[i] < ye && !(n > 1 && vm[i] == r->y[n - 1]))
+                    r->y[n++] = vm[i];
+            r->y[n++] = ye;
+            r->nc = n;
+            for (int j = 0; j < n; j++) {
+                if (j == 0 && end_ok && ys == yr) {
+                    r->xe[0][0] = xe_end[0]; /* the previous row's end */
+                    r->xe[0][1] = xe_end[1];
                 } else {
-                    double q = h / (x1 - x0);
-                    for (int k = 0; k < 3; k++)
-                        acc[k] += sg * (G[j + 1][side][k] - G[j][side][k]) * q;
+                    int ok = cut_extent(&g, r->y[j] - c[1], j == 0, r->xe[j]);
+                    if (j == n - 1) {
+                        end_ok = ok;
+                        xe_end[0] = r->xe[j][0];
+                        xe_end[1] = r->xe[j][1];
+                    }
+                }
+            }
+#if defined(__GNUC__)
+            if (inside)
+                for (int j = 0; j < n; j++)
+                    for (int side = 0; side < 2; side++) {
+                        double x = cx + r->xe[j][side];
+                        int i = x > 0.0 ? (int)x : 0;
+                        i = i > w - 1 ? w - 1 : i;
+                        /* F_i, G_i, F_i+1: 72 bytes, on two lines (one
+                         * prefetch per lookup: 0.40 us; once per row end
+                         * over the lookups' range of x: 0.45) */
+                        __builtin_prefetch(r->pr + 6 * (size_t)i);
+                        __builtin_prefetch(r->pr + 6 * (size_t)i + 8);
+                    }
+#endif
+        }
+        /* pass 2: the lookups, and the integrals over each piece */
+        for (int k = 0; k < nr; k++) {
+            const rowcuts *r = &rc[k];
+            double F[2][2][3], G[2][2][3]; /* at the piece's lower and upper cut, per end */
+            for (int j = 0; j < r->nc; j++) {
+                int cur = j & 1;
+                for (int side = 0; side < 2; side++) {
+                    if (inside)
+                        row_FG_in(r->pr, w, cx + r->xe[j][side], F[cur][side], G[cur][side]);
+                    else
+                        row_FG(t, r->pr, r->tx, c[0] + r->xe[j][side], F[cur][side], G[cur][side]);
+                }
+                if (j == 0)
+                    continue;
+                int prv = cur ^ 1;
+                double hh = r->y[j] - r->y[j - 1];
+                if (hh <= 0.0)
+                    continue;
+                for (int side = 0; side < 2; side++) {
+                    /* integral over the piece of F at the end moving linearly
+                     * from x0 to x1: (G(x1) - G(x0)) / slope; trapezoid when
+                     * it barely moves (the test on the unshifted x) */
+                    double x0 = r->xe[j - 1][side], x1 = r->xe[j][side], sg = side ? 1.0 : -1.0;
+                    if (fabs(x1 - x0) < 1e-6 * (1.0 + fabs(x0 + c[0]))) {
+                        for (int q = 0; q < 3; q++)
+                            acc[q] += sg * 0.5 * (F[prv][side][q] + F[cur][side][q]) * hh;
+                    } else {
+                        double qq = hh / (x1 - x0);
+                        for (int q = 0; q < 3; q++)
+                            acc[q] += sg * (G[cur][side][q] - G[prv][side][q]) * qq;
+                    }
                 }
             }
         }
