@@ -9,6 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -542,6 +543,52 @@ static void test_furnace(void **state)
 }
 
 /* Thread count does not change the result. */
+/* The pinhole camera both the path tracer and the relight shoot through:
+ * the centre ray is the view direction, the top and side edges are half the
+ * vertical field of view and its horizontal counterpart away, and the
+ * relight's per-view basis (gi_camera_frame_ray) gives exactly the rays of
+ * gi_camera_ray, so both tools see the same pixels. */
+static void test_camera_rays(void **state)
+{
+    (void)state;
+    gi_camera cam;
+    memset(&cam, 0, sizeof cam);
+    gi_vec3 f = gi_norm(gi_v3(0.3f, -0.2f, 0.9f)), up0 = gi_v3(0.1f, 1.0f, 0.05f);
+    gi_vec3 r = gi_norm(gi_cross(f, up0)), up = gi_cross(r, f);
+    gi_v3store(cam.forward, f);
+    gi_v3store(cam.up, up);
+    cam.position[0] = 1.5f;
+    cam.position[1] = -2.0f;
+    cam.position[2] = 0.25f;
+    cam.yfov = 0.9f;
+    const int w = 320, h = 200;
+    gi_vec3 o, d;
+    gi_camera_ray(&cam, w, h, 160.0f, 100.0f, &o, &d);
+    assert_true(gi_len(gi_sub(d, f)) < 1e-6f);
+    assert_true(o.x == 1.5f && o.y == -2.0f && o.z == 0.25f);
+    gi_camera_ray(&cam, w, h, 160.0f, 0.0f, &o, &d); /* top edge: up by yfov / 2 */
+    assert_true(fabsf(acosf(gi_dot(d, f)) - 0.45f) < 1e-5f);
+    assert_true(gi_dot(d, up) > 0.0f);
+    gi_camera_ray(&cam, w, h, 0.0f, 100.0f, &o, &d); /* left edge */
+    float hx = atanf(tanf(0.45f) * (float)w / (float)h);
+    assert_true(fabsf(acosf(fminf(1.0f, gi_dot(d, f))) - hx) < 1e-5f);
+    assert_true(gi_dot(d, r) < 0.0f);
+    gi_camera_frame cf;
+    gi_camera_frame_init(&cf, &cam, w, h);
+    uint64_t x = 12345;
+    for (int i = 0; i < 1000; i++) {
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+        float px = (float)(x >> 40) / (float)(1u << 24) * (float)w;
+        float py = (float)((x >> 16) & 0xffffff) / (float)(1u << 24) * (float)h;
+        gi_vec3 o1, d1, o2, d2;
+        gi_camera_ray(&cam, w, h, px, py, &o1, &d1);
+        gi_camera_frame_ray(&cf, px, py, &o2, &d2);
+        assert_memory_equal(&d1, &d2, sizeof d1);
+        assert_memory_equal(&o1, &o2, sizeof o1);
+        assert_true(fabsf(gi_len(d1) - 1.0f) < 1e-6f);
+    }
+}
+
 static void test_thread_independence(void **state)
 {
     (void)state;
@@ -596,6 +643,7 @@ int main(void)
         cmocka_unit_test(test_room_rho50),
         cmocka_unit_test(test_room_rho90),
         cmocka_unit_test(test_furnace),
+        cmocka_unit_test(test_camera_rays),
         cmocka_unit_test(test_thread_independence),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
