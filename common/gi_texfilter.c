@@ -482,6 +482,15 @@ void gi_texfilter_box(const gi_texfilter *f, int tex, const float uv[2], const f
         rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
         return;
     }
+    if (isinf(a[0]) || isinf(a[1]) || isinf(b[0]) || isinf(b[1])) {
+        /* an unbounded footprint (a neighbouring ray along the plane): the
+         * whole texture's mean, the last level's one texel (the grid below
+         * would cast an infinite count to int) */
+        const gi_texture *tl = &p->lv[p->levels - 1];
+        for (int k = 0; k < 4; k++)
+            rgba[k] = tl->rgba[k];
+        return;
+    }
     /* lengths of the footprint's edges in level-0 texels */
     float la = hypotf(a[0] * (float)t0->width, a[1] * (float)t0->height);
     float lb = hypotf(b[0] * (float)t0->width, b[1] * (float)t0->height);

@@ -129,6 +129,25 @@ static void test_checker_means(void **state)
     gi_scene_free(s);
 }
 
+/* An unbounded footprint (a ray grazing the plane) gives the texture's mean,
+ * finite, for either axis. */
+static void test_infinite_footprint(void **state)
+{
+    (void)state;
+    gi_scene *s = make_scene(64, 32, v_checker, GI_WRAP_REPEAT, 0);
+    gi_texfilter *f = filter_of(s);
+    const float uv[2] = {0.3f, 0.6f};
+    const float fin[2] = {0.01f, 0.02f};
+    const float inf_a[2] = {INFINITY, 0.0f}, inf_b[2] = {0.0f, -INFINITY};
+    float rgba[4];
+    gi_texfilter_box(f, 0, uv, inf_a, fin, rgba);
+    assert_float_equal(rgba[0], 0.5f, 1e-5f);
+    gi_texfilter_box(f, 0, uv, fin, inf_b, rgba);
+    assert_float_equal(rgba[0], 0.5f, 1e-5f);
+    gi_texfilter_free(f);
+    gi_scene_free(s);
+}
+
 /* Stripes along u: a footprint 8 texels long across the stripes averages
  * them; one 8 texels long along them (and none across) keeps the stripe's
  * value: the minor axis is not blurred. */
@@ -311,6 +330,7 @@ int main(void)
         cmocka_unit_test(test_parallelogram_exact),
         cmocka_unit_test(test_clamp_beyond_edge),
         cmocka_unit_test(test_texel_from_camera),
+        cmocka_unit_test(test_infinite_footprint),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
