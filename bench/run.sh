@@ -64,13 +64,13 @@ else
   CB_FRAMES="point-lowered blue-left-wall camera-moved"; CB_REF_SPP=512; CB_PT_SPPS="16 64 256"
   CB_NOISE_SPP=64
   CB_PC_BASE=""; CB_HV_BASE=""
-  CB_SWEEP="default photons=250000 photons=4000000 rmax-div=64 rmax-div=256 rays=64 rays=1024 cells=4 cells=64"
+  CB_SWEEP="default photons=250000 photons=4000000 rmax-div=128 rmax-div=256 rays=64 rays=1024 cells=4 cells=64"
   SP_FRAMES="sun-moved arcade-moved"; SP_REF_SPP=512; SP_PT_SPPS="4 16 64"; SP_NOISE_SPP=64
   SP_PC_BASE=""; SP_HV_BASE=""
-  SP_SWEEP="default photons=250000 photons=4000000 rmax-div=64 rmax-div=256 rays=64"
+  SP_SWEEP="default photons=250000 photons=4000000 rmax-div=128 rmax-div=256 rays=64"
 fi
 # Tool defaults (gi-precompute --help, gi-hvds --help), for the parameter columns.
-DEF_PHOTONS=1000000; DEF_RMAXDIV=128; DEF_RAYS=auto; DEF_CELLS=16
+DEF_PHOTONS=1000000; DEF_RMAXDIV=181; DEF_RAYS=auto; DEF_CELLS=16
 # shellcheck disable=SC2034  # read indirectly
 # Paper, Table 1 (ms; GeForce 7800 GTX): T_di T_pe T_hvds T_fg T_splat T_tot T_light T_view T_mat
 PAPER_cornell_box="6,11,11,5,76,109,109,87,1271"
