@@ -55,6 +55,8 @@ static void help(void)
            "  --glossy-rays N         a glossy surface's pixel reflects indirect light from N rays of\n"
            "                          its lobe, traced once per view, averaged over 5 x 5 pixels of\n"
            "                          its surface (default 36; 0: the gathering points' linear fit)\n"
+           "  --interp linear|mean    a pixel's indirect light from its gathering points: a weighted\n"
+           "                          linear fit (default), or their weighted mean\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
            "  --only direct|indirect  render one part of the light: direct (compare with gi-compare\n"
            "                          render --max-bounces 0) or indirect (--min-bounces 1)\n"
@@ -69,7 +71,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_INTERP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static uint32_t key_at(const void *ctx, const float p[3], const float n[3])
@@ -147,7 +149,7 @@ int main(int argc, char **argv)
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF},
-        {"glossy-rays", required_argument, 0, OPT_GRAYS},
+        {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"interp", required_argument, 0, OPT_INTERP},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
@@ -185,6 +187,14 @@ int main(int argc, char **argv)
                 so.direct = 0;
             else
                 gi_usage_error("--only: expected direct or indirect, got '%s'", optarg);
+            break;
+        case OPT_INTERP:
+            if (!strcmp(optarg, "linear"))
+                so.interp_linear = 1;
+            else if (!strcmp(optarg, "mean"))
+                so.interp_linear = 0;
+            else
+                gi_usage_error("--interp: expected linear or mean, got '%s'", optarg);
             break;
         case OPT_TEXF:
             if (!strcmp(optarg, "on"))

@@ -214,6 +214,7 @@ expect_stderr "got 3 arguments" "the argument count is given"
 expect_exit 2 "--ss 0 (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --ss 0
 expect_exit 2 "--area-samples x (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --area-samples x
 expect_exit 2 "--exposure 100 (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --exposure 100
+expect_exit 2 "--interp cubic (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --interp cubic
 expect_exit 2 "--frames with an unknown name (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --frames nosuch
 expect_stderr "no frame 'nosuch'" "the unknown frame is named"
 expect_exit 2 "--frames past the last frame (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --frames 1-4
