@@ -23,7 +23,7 @@ void gi_hvds_opts_default(gi_hvds_opts *o)
     o->dir_bins = 64;
     o->cell_photons = 16.0f;
     o->key_photons = 8;
-    o->entry_keys = 0; /* 2 measured: see gi-hvds(1), --entry-keys */
+    o->entry_keys = 1; /* measured: see gi-hvds(1), --entry-keys */
     o->occlusion_check = 1;
     o->leak_check = 1;
     o->seed = 1;
@@ -734,6 +734,51 @@ static int u64_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* spread the low 10 bits of x to every third bit */
+static uint32_t morton_spread(uint32_t x)
+{
+    x &= 0x3ffu;
+    x = (x | (x << 16)) & 0x030000ffu;
+    x = (x | (x << 8)) & 0x0300f00fu;
+    x = (x | (x << 4)) & 0x030c30c3u;
+    x = (x | (x << 2)) & 0x09249249u;
+    return x;
+}
+
+/* The selected candidates sel[0..n) in Morton order of their positions (a
+ * 1024^3 grid over their bounding box): the relight's final gather reads
+ * the points in file order, each point's (key, count) pairs in a stream,
+ * and neighbours in space read mostly the same keys, which then stay in
+ * the cache (Sponza, sun moves, --entry-keys 1, medians of 14 frames on a
+ * loaded machine: final gather 16.4 -> 13.8 ms; the points had come in
+ * triangle order). Returns nonzero when out of memory. */
+static int morton_sort(const cand *c, uint32_t *sel, size_t n)
+{
+    uint64_t *key = malloc((n + 1) * sizeof *key);
+    if (!key)
+        return 1;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fminf(lo[a], c[sel[i]].pos[a]);
+            hi[a] = fmaxf(hi[a], c[sel[i]].pos[a]);
+        }
+    for (size_t i = 0; i < n; i++) {
+        uint32_t q[3];
+        for (int a = 0; a < 3; a++) {
+            float ext = hi[a] - lo[a], f = ext > 0.0f ? (c[sel[i]].pos[a] - lo[a]) / ext : 0.0f;
+            q[a] = (uint32_t)fminf(fmaxf(f * 1023.0f, 0.0f), 1023.0f);
+        }
+        uint64_t code = morton_spread(q[0]) | morton_spread(q[1]) << 1 | morton_spread(q[2]) << 2;
+        key[i] = code << 32 | sel[i];
+    }
+    qsort(key, n, sizeof *key, u64_cmp);
+    for (size_t i = 0; i < n; i++)
+        sel[i] = (uint32_t)key[i];
+    free(key);
+    return 0;
+}
+
 /* (key, count) pairs of a sorted key list into out (2 words each); returns the pair count */
 static uint32_t count_keys(const uint32_t *k, uint32_t n, uint32_t *out)
 {
@@ -845,6 +890,10 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     if ((o.gather == GI_GATHER_KMEANS ? select_kmeans : select_rejection)(rt, c, nc, &o, rmin, rmax,
                                                                           threads, &sel, &ng, &reff)) {
         rc = gi_status_set(st, GI_EXIT_SYSTEM, "out of memory selecting gathering points");
+        goto fail;
+    }
+    if (morton_sort(c, sel, ng)) {
+        rc = gi_status_set(st, GI_EXIT_SYSTEM, "out of memory sorting %zu gathering points", ng);
         goto fail;
     }
     gi_verbose("gathering points: %zu of %zu candidates (%s, R+ %.4g m, R- %.4g m), %.2f s", ng, nc,
