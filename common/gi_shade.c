@@ -381,23 +381,29 @@ void gi_shade_free(gi_shade *sh)
  * Keeps the K largest, normalised. No point with weight: the points on the
  * same side within 3 cells, with a wider reach (below). Returns the number
  * kept. */
-/* Turn the normalised weights w of k gathering points into the weights of
- * a weighted linear fit: the value at p of the plane a + b.(x - p), in the
- * tangent plane of n, fitted to the points' values with weights w by least
- * squares. A weighted mean flattens the indirect light wherever it slopes
- * (a column's foot beside a lit floor, a soffit's curve): the fit follows
- * the slope and still sums to one. The gradient b is damped by a ridge of
- * GI_SHADE_FIT_RIDGE times the weighted mean of the points' squared radii,
- * doubled until the weights' absolute sum is at most GI_SHADE_FIT_L1: noise
- * grows with that sum, and a fit without the bound extrapolated a few
- * points' noise into spikes (Sponza sun-moved 0.1034 -> 0.4179 with a ridge
- * of 0.01). Sponza against 1024-spp references, sun-moved / arcade-moved:
- * weighted mean 0.1034 / 0.0983; ridge 0.1, 0.3, 1 (no bound) 0.1026 /
- * 0.0969, 0.1024 / 0.0969, 0.1026 / 0.0972; ridge 0.3 with the bound 1.5
- * 0.1024 / 0.0970. Weights may come out negative; the splat clamps the
- * irradiance at zero. */
+/* Turn the normalised weights w of k gathering points into half their own
+ * and half the weights of a weighted linear fit: the value at p of the plane
+ * a + b.(x - p), in the tangent plane of n, fitted to the points' values
+ * with weights w by least squares. A weighted mean flattens the indirect
+ * light wherever it slopes (a column's foot beside a sunlit floor, a
+ * soffit's curve): the fit follows the slope, and both sum to one. The
+ * gradient b is damped by a ridge of GI_SHADE_FIT_RIDGE times the weighted
+ * mean of the points' squared radii, doubled until the weights' absolute
+ * sum is at most GI_SHADE_FIT_L1: noise grows with that sum, and a fit
+ * without the bound extrapolated a few points' noise into spikes (Sponza
+ * sun-moved 0.1034 -> 0.4179 with a ridge of 0.01). Measured against
+ * 1024-spp references on Sponza (sun-moved / arcade-moved) and 2048-spp
+ * ones on the Cornell box's more-variants (256 x 256, spot-down-wide, the
+ * frame that changed most): the mean 0.0997 / 0.0971 and 0.0480; the fit
+ * alone 0.0986 / 0.0964 and 0.0495 (it gives more weight to the nearest
+ * points, and the box's points along its creases are too bright already);
+ * the fit at 0.3 with the mean at 0.7 0.0991 / 0.0966 and 0.0484; half
+ * each 0.0989 / 0.0964 and 0.0487. Ridges of 0.1 and 1 and bounds of 1.0
+ * and 1.25 did no better on either. Weights may come out negative; the
+ * splat clamps the irradiance at zero. */
 #define GI_SHADE_FIT_RIDGE 0.3
 #define GI_SHADE_FIT_L1 1.5
+#define GI_SHADE_FIT_BLEND 0.5 /* the fit's share of the weights */
 static void linear_fit(const gi_shade *sh, const float p[3], const float n[3], const uint32_t *idx, float *w, int k)
 {
     gi_vec3 t, b;
@@ -430,7 +436,7 @@ static void linear_fit(const gi_shade *sh, const float p[3], const float n[3], c
         }
         if (l1 <= GI_SHADE_FIT_L1) {
             for (int q = 0; q < k; q++)
-                w[q] = (float)cw[q];
+                w[q] = (float)(GI_SHADE_FIT_BLEND * cw[q] + (1.0 - GI_SHADE_FIT_BLEND) * w[q]);
             return;
         }
     }

@@ -40,9 +40,10 @@ typedef struct gi_shade_opts {
     int coverage;       /* with aa >= 3: each edge pixel's samples weighted by their share
                            of coverage x coverage camera rays (0, the default: aa + 4;
                            1: equal shares) */
-    int interp_linear;  /* 1 (default): a pixel sample's indirect light is the weighted
-                           linear fit of its gathering points' irradiance; 0: their
-                           weighted mean (the irradiance cache's) */
+    int interp_linear;  /* 1 (default): a pixel sample's indirect light is half the weighted
+                           mean of its gathering points' irradiance and half their weighted
+                           linear fit (gi_shade.c, linear_fit); 0: the mean alone (the
+                           irradiance cache's) */
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;
@@ -78,10 +79,10 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                    const float *gp_irradiance, const float *gp_gradient, const gi_shade_opts *o, float *rgb,
                    gi_shade_times *times, gi_status *st);
 /* Interpolated indirect irradiance (lux, RGB) at surface point p with
- * oriented normal n, as a pixel sample there gets it: linear 1, the
- * weighted linear fit (gi_shade_opts.interp_linear's default), 0 the
- * weighted mean; clamped at 0; 0 if no gathering point is near. For tests
- * and tools. */
+ * oriented normal n, as a pixel sample there gets it: linear 1, half the
+ * weighted mean and half the weighted linear fit (gi_shade_opts.interp_linear's
+ * default), 0 the mean alone; clamped at 0; 0 if no gathering point is near.
+ * For tests and tools. */
 void gi_shade_irradiance_at(const gi_shade *sh, const float *gp_irradiance, const float p[3],
                             const float n[3], int linear, float e[3]);
 

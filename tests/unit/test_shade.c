@@ -1,7 +1,7 @@
 /* test_shade.c - the interpolation of gathering points' irradiance at a
  * surface point (gi_shade_irradiance_at): both modes keep a constant field,
- * the weighted linear fit follows a sloped field where the weighted mean
- * flattens it, and the fit's weights stay bounded on a field of noise. */
+ * the half-linear-fit weights follow a sloped field where the weighted mean
+ * flattens it, and their weights stay bounded on a field of noise. */
 #define _POSIX_C_SOURCE 200809L
 #include <setjmp.h>
 #include <stdarg.h>
@@ -109,9 +109,10 @@ static void test_interpolation_modes(void **state)
     assert_true(c_mean < 1e-5);
     assert_true(c_lin < 1e-5);
     assert_true(s_mean > 1e-3); /* the mean leaves an error the fit must remove */
-    assert_true(s_lin < 0.5 * s_mean);
+    assert_true(s_lin < 0.8 * s_mean); /* half the weights are the fit's */
     /* a field of noise in [0, 100]: the fit's weights have an absolute sum of
-     * at most 1.5, so no value leaves [-50, 150]; after the clamp, [0, 150] */
+     * at most 1.5, half of them the mean's, so no value leaves [-25, 125];
+     * after the clamp, [0, 125] */
     gi_rng r;
     gi_rng_seed(&r, 5, 0, 0);
     for (uint32_t i = 0; i < 3 * f.h->num_gpoints; i++)
@@ -129,7 +130,7 @@ static void test_interpolation_modes(void **state)
     }
     print_message("noise field in [0, 100]: the linear fit gave [%.2f, %.2f]\n", lo, hi);
     assert_true(lo >= 0.0f);
-    assert_true(hi <= 150.0f + 1e-3f);
+    assert_true(hi <= 125.0f + 1e-3f);
     assert_true(hi > 100.0f || lo < 1.0f || hi - lo > 50.0f); /* it did interpolate noise */
     free(gpe);
     fixture_free(&f);
