@@ -325,8 +325,8 @@ bench_scene() {
   # -- 6. the reference's own noise: seed 2 against seed 3 at noise_spp spp; each image
   #       carries 1/sqrt(2) of their mutual nrmse, the reference sqrt(noise_spp/ref_spp) of that.
   {
-    echo "| frame | reference seconds | mutual nrmse, seeds 2 and 3 at $noise_spp spp | estimated noise of the $ref_spp-spp reference |"
-    echo "|---|---:|---:|---:|"
+    echo "| frame | reference seconds | mutual nrmse, seeds 2 and 3 at $noise_spp spp | estimated noise of the $ref_spp-spp reference | the reference's own estimate (gi:noise_nrmse) |"
+    echo "|---|---:|---:|---:|---:|"
     for f in $frames; do
       local m="n/a" rn="n/a" rs
       rs=$(exr_attr "$wk/ref-$f.exr" gi:seconds)
@@ -334,7 +334,7 @@ bench_scene() {
         m=$(nrmse "$wk/pt-$f-$noise_spp.exr" "$wk/seed3-$f.exr")
         [ -n "$m" ] && rn=$(calc "$m / sqrt(2) * sqrt($noise_spp / $ref_spp)") || m="n/a"
       fi
-      echo "| $f | ${rs:-?} | $m | $rn |"
+      echo "| $f | ${rs:-?} | $m | $rn | $(exr_attr "$wk/ref-$f.exr" gi:noise_nrmse || true) |"
       [ "$rn" != "n/a" ] && echo "$rn" >> "$raw/refnoise.txt"
     done
   } > "$raw/refnoise.md"

@@ -56,6 +56,10 @@ typedef struct gi_pt_render_result {
     double seconds;      /* wall time */
     uint64_t rays;       /* rays traced (closest-hit and shadow) */
     uint64_t dropped;    /* non-finite samples discarded (should be 0) */
+    /* the image's own noise, estimated from its first samples against its
+     * last pass (the second half at 2^k spp): rms over pixels and channels
+     * (cd/m^2), and that over the image's mean; -1 below 2 spp */
+    double noise_rms, noise_nrmse;
 } gi_pt_render_result;
 
 /* Render w x h pixels (row 0 at the top) into rgb (3 floats per pixel) with up

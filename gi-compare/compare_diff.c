@@ -48,6 +48,11 @@ static void diff_help(void)
            "or gray) and print key=value statistics on stdout: width height channels\n"
            "pixels rms nrmse relmse psnr max_abs max_abs_x max_abs_y mean_a mean_ref and\n"
            "per channel rms_r rms_g rms_b nrmse_r nrmse_g nrmse_b (rms_y, nrmse_y for gray).\n"
+           "When REFERENCE is a gi-compare render of 2 spp or more, also ref_noise_nrmse (its\n"
+           "own noise, estimated when it was rendered) and nrmse_excess = sqrt(max(0, nrmse^2\n"
+           "- ref_noise_nrmse^2)): IMAGE's error against the noise-free image, were IMAGE's\n"
+           "error independent of REFERENCE's noise (not so for a render of the same seed).\n"
+           "--tolerance applies to nrmse.\n"
            "\n"
            "options:\n"
            "  -t, --tolerance T       exit 1 when nrmse > T (default: no limit, exit 0)\n"
@@ -436,6 +441,21 @@ int compare_diff_main(int argc, char **argv)
     for (int c = 0; c < nc; c++)
         printf("nrmse_%s=%.9g\n", channel_name(nc, c),
                normalised(sqrt(s.sq[c] / npix), s.sum_b[c] / npix));
+    {
+        /* the reference's own noise, when gi-compare render estimated it */
+        char nb[64];
+        gi_status mst = {0};
+        char *end = NULL;
+        double rn = -1.0;
+        if (gi_image_read_meta(o.ref_path, "noise_nrmse", nb, sizeof nb, &mst) == 0)
+            rn = strtod(nb, &end);
+        if (rn >= 0.0 && end && end != nb && *end == '\0' && isfinite(rn)) {
+            double ex2 = nrmse * nrmse - rn * rn;
+            printf("ref_noise_nrmse=%.9g\nnrmse_excess=%.9g\n", rn, ex2 > 0.0 ? sqrt(ex2) : 0.0);
+        } else {
+            gi_verbose("no reference noise: %s", mst.code ? mst.msg : "gi:noise_nrmse is not a number >= 0");
+        }
+    }
     if (fflush(stdout) != 0 || ferror(stdout)) {
         gi_error("stdout: write failed");
         rc = GI_EXIT_SYSTEM;

@@ -163,19 +163,24 @@ int compare_render_main(int argc, char **argv)
     gi_pt_render_result res;
     rc = gi_pt_render(j.pt, &j.frame.camera, w, h, spp, budget, img.pixels, &res, &st);
     if (!rc) {
-        char sppbuf[32], secbuf[32], seedbuf[32], hashbuf[32], bouncebuf[32], minbbuf[32];
+        char sppbuf[32], secbuf[32], seedbuf[32], hashbuf[32], bouncebuf[32], minbbuf[32], nbuf[32], nrbuf[32];
         snprintf(sppbuf, sizeof sppbuf, "%d", res.spp);
         snprintf(secbuf, sizeof secbuf, "%.3f", res.seconds);
         snprintf(seedbuf, sizeof seedbuf, "%llu", (unsigned long long)po.seed);
         snprintf(hashbuf, sizeof hashbuf, "%016llx", (unsigned long long)j.scene->hash);
         snprintf(bouncebuf, sizeof bouncebuf, "%d", po.max_bounces);
         snprintf(minbbuf, sizeof minbbuf, "%d", po.min_bounces);
+        snprintf(nbuf, sizeof nbuf, "%.6g", res.noise_rms);
+        snprintf(nrbuf, sizeof nrbuf, "%.6g", res.noise_nrmse);
         gi_image_meta meta[] = {
             {"tool", "gi-compare render"}, {"spp", sppbuf},          {"seconds", secbuf},
             {"seed", seedbuf},             {"scene_hash", hashbuf},  {"frame", j.frame.name},
             {"max_bounces", bouncebuf},    {"min_bounces", minbbuf}, {"units", "cd/m^2"},
+            {"noise_rms", nbuf},           {"noise_nrmse", nrbuf},
         };
-        rc = gi_image_write_exr(out, &img, meta, sizeof meta / sizeof meta[0], &st);
+        /* (the noise last: left out below 2 spp, where there is no estimate) */
+        size_t nmeta = sizeof meta / sizeof meta[0] - (res.noise_nrmse >= 0.0 ? 0 : 2);
+        rc = gi_image_write_exr(out, &img, meta, nmeta, &st);
     }
     if (!rc) {
         if (res.dropped)
@@ -183,6 +188,10 @@ int compare_render_main(int argc, char **argv)
         gi_info("rendered frame '%s' %dx%d, %d spp in %.2f s (%.2f Mrays/s, %.3f us per sample) -> %s",
                 j.frame.name, w, h, res.spp, res.seconds, res.rays / res.seconds * 1e-6,
                 res.seconds * 1e6 / ((double)w * h * res.spp), out);
+        if (res.noise_nrmse >= 0.0)
+            gi_info("its own noise, estimated from its two halves: nrmse %.4f (an image compared with it "
+                    "cannot measure below this)",
+                    res.noise_nrmse);
     }
     gi_image_release(&img);
     job_release(&j);

@@ -56,6 +56,42 @@ expect_success "render with --seed 2" \
 "$GC" diff "$TMP/s2.exr" "$TMP/a.exr" >"$TMP/stdout" 2>/dev/null
 check "a different seed gives a different image (rms=$(val rms))" num_ge "$(val rms)" 1e-9
 
+# ---- the image's own noise -------------------------------------------------------
+# Two renders of other seeds differ by both images' noise: the estimates that
+# each wrote (from its two independently scrambled halves) must add up to it.
+if [ ${#INFO[@]} -gt 0 ]; then
+  for sd in 1 2; do
+    for n in 16 64; do
+      "$GC" render "$TMP/cornell.gltf" "$SCRIPT" -o "$TMP/n$sd-$n.exr" --size 64x64 --spp $n -s $sd -q ||
+        not_ok "render 64x64 at $n spp, seed $sd"
+    done
+  done
+  for n in 16 64; do
+    e1=$(meta "$TMP/n1-$n.exr" noise_nrmse) e2=$(meta "$TMP/n2-$n.exr" noise_nrmse)
+    "$GC" diff "$TMP/n1-$n.exr" "$TMP/n2-$n.exr" >"$TMP/stdout" 2>/dev/null
+    got=$(val nrmse)
+    check "$n spp: the noise estimates ($e1, $e2) add up to the seeds' difference ($got) within 25%" \
+      awk -v a="$e1" -v b="$e2" -v d="$got" 'BEGIN { r = sqrt(a * a + b * b) / d; exit !(a > 0 && b > 0 && r > 0.8 && r < 1.25) }'
+  done
+  e16=$(meta "$TMP/n1-16.exr" noise_nrmse) e64=$(meta "$TMP/n1-64.exr" noise_nrmse)
+  check "4x the samples about halve the estimated noise ($e16 -> $e64)" \
+    awk -v a="$e16" -v b="$e64" 'BEGIN { r = b / a; exit !(r > 0.35 && r < 0.65) }'
+  check "the noise rms is the noise nrmse times the mean" \
+    awk -v r="$(meta "$TMP/n1-64.exr" noise_rms)" -v n="$e64" -v m="$("$GC" diff "$TMP/n1-64.exr" "$TMP/n1-64.exr" | sed -n 's/^mean_ref=//p')" \
+      'BEGIN { exit !(r > 0 && (r / (n * m) - 1) ^ 2 < 1e-8) }'
+  # diff reports a reference's noise and the error beyond it
+  "$GC" diff "$TMP/n2-16.exr" "$TMP/n1-64.exr" >"$TMP/stdout" 2>/dev/null
+  check "diff prints the reference's ref_noise_nrmse ($(val ref_noise_nrmse))" [ "$(val ref_noise_nrmse)" = "$e64" ]
+  check "nrmse_excess = sqrt(nrmse^2 - ref_noise_nrmse^2) ($(val nrmse_excess))" \
+    awk -v x="$(val nrmse_excess)" -v t="$(val nrmse)" -v n="$e64" 'BEGIN { exit !(x > 0 && (x * x - (t * t - n * n)) ^ 2 < 1e-12) }'
+  "$GC" render "$TMP/cornell.gltf" "$SCRIPT" -o "$TMP/n1.exr" --size 16x16 --spp 1 -q || not_ok "render at 1 spp"
+  check "1 spp: no noise estimate in the metadata" [ -z "$(meta "$TMP/n1.exr" noise_nrmse)" ]
+  "$GC" diff "$TMP/n1-16.exr" "$TMP/n1.exr" --quiet >"$TMP/stdout" 2>/dev/null
+  check "diff against a reference without an estimate prints none" [ -z "$(val ref_noise_nrmse)$(val nrmse_excess)" ]
+else
+  echo "ok # skip noise checks: neither iinfo nor oiiotool (openimageio-tools) found"
+fi
+
 # ---- frame selection -------------------------------------------------------------
 expect_success "--frame by name (panel)" \
   "$GC" render "$TMP/cornell.gltf" "$SCRIPT" --frame panel -o "$TMP/panel.exr" "${SIZE[@]}"
