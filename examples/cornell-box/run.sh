@@ -28,19 +28,25 @@ echo "== 4. gi-relight: every frame of variants.script"
 "$BIN/gi-relight" -q "$scene" "$OUT/cornell-box.gip" "$OUT/cornell-box.gih" "$script" -o "$OUT/relight" \
     --png --exposure -1 --timings "$OUT/timings.csv"
 echo "== 5. references (gi-compare render, $SPP spp) and errors (gi-compare diff)"
-declare -A nrmse refsec
+declare -A nrmse refsec refnoise excess
 for f in $REF_FRAMES; do
   "$BIN/gi-compare" render "$scene" "$script" --frame "$f" --spp "$SPP" -q -o "$OUT/ref-$f.exr"
   refsec[$f]=$(oiiotool --info -v "$OUT/ref-$f.exr" 2>/dev/null | awk -F'"' '/gi:seconds/ {print $2}')
-  nrmse[$f]=$("$BIN/gi-compare" diff "$OUT/relight/$f.exr" "$OUT/ref-$f.exr" \
-      --error-image "$OUT/error-$f.png" | awk -F= '$1 == "nrmse" {printf "%.4f", $2}')
+  "$BIN/gi-compare" diff "$OUT/relight/$f.exr" "$OUT/ref-$f.exr" --error-image "$OUT/error-$f.png" \
+      > "$OUT/diff-$f.txt"
+  nrmse[$f]=$(awk -F= '$1 == "nrmse" {printf "%.4f", $2}' "$OUT/diff-$f.txt")
+  refnoise[$f]=$(awk -F= '$1 == "ref_noise_nrmse" {printf "%.4f", $2}' "$OUT/diff-$f.txt")
+  excess[$f]=$(awk -F= '$1 == "nrmse_excess" {printf "%.4f", $2}' "$OUT/diff-$f.txt")
 done
 echo
-printf '%-20s %-26s %10s %10s %12s\n' frame changed relight_ms nrmse reference_s
+printf '%-20s %-26s %10s %10s %10s %10s %12s\n' frame changed relight_ms nrmse ref_noise beyond reference_s
 tail -n +2 "$OUT/timings.csv" | while IFS=, read -r idx name changed w h tdi tpe thv tfg tsp tmat tgb ttot; do
-  printf '%-20s %-26s %10.1f %10s %12s\n' "$name" "$changed" "$ttot" "${nrmse[$name]:--}" "${refsec[$name]:--}"
+  printf '%-20s %-26s %10.1f %10s %10s %10s %12s\n' "$name" "$changed" "$ttot" "${nrmse[$name]:--}" \
+    "${refnoise[$name]:--}" "${excess[$name]:--}" "${refsec[$name]:--}"
 done
 echo
 echo "made in $OUT: cornell-box.gltf/.gip/.gih, relight/<frame>.exr + .png (linear cd/m^2 and sRGB),"
-echo "timings.csv, ref-<frame>.exr (path traced, $SPP spp) and error-<frame>.png (relative error maps)"
-echo "(nrmse includes the reference's own Monte Carlo noise at $SPP spp)"
+echo "timings.csv, ref-<frame>.exr (path traced, $SPP spp), error-<frame>.png (relative error maps) and"
+echo "diff-<frame>.txt (gi-compare diff of the relit frame against its reference)"
+echo "(nrmse includes the reference's own Monte Carlo noise at $SPP spp, which the reference estimates"
+echo " from its two halves: ref_noise; beyond = sqrt(nrmse^2 - ref_noise^2), the relight's error net of it)"
