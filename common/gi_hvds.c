@@ -874,8 +874,18 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         if (a > 0.0)
             total += s->materials[s->tri_material[i]].double_sided ? 2.0 * a : a;
     }
-    double want = 16.0 * total / (GI_PI * (double)rmax * rmax);
-    size_t ncand = (size_t)fmin(fmax(want, 2000.0), 400000.0);
+    /* 64 candidates per pi R+^2, up to 1.6 M (until 2026-12-02: 16, up to
+     * 400 k, which capped Sponza at 0.55 of its 16). Rejection can only keep
+     * points where there are candidates, so the sparser set could not follow
+     * a small R_i into creases and along mouldings. Sponza, 1024-spp refs,
+     * three --seed of gi-hvds each: points 105 k -> 163 k; sun-b 0.1323 /
+     * 0.1314 / 0.1349 -> 0.1263 / 0.1252 / 0.1267, arcades-b 0.0722 / 0.0726
+     * / 0.0744 -> 0.0676 / 0.0686 / 0.0718, arcade-moved 0.0964 / 0.1001 /
+     * 0.0945 -> 0.0887 / 0.0993 / 0.0917, sun-moved and sun-c within 0.002;
+     * gi-hvds 24 -> 32 s, final gather ~13 -> ~16 ms. 4 M candidates gave no
+     * more (sun-b 0.1260), nor did R- halved (0.1304). */
+    double want = 64.0 * total / (GI_PI * (double)rmax * rmax);
+    size_t ncand = (size_t)fmin(fmax(want, 2000.0), 1600000.0);
     size_t nc = 0, ng = 0;
     c = make_candidates(s, ncand, o.seed, &nc);
     if (!c) {
