@@ -34,9 +34,10 @@ typedef struct gi_shade_opts {
                            material borders) and hard shadow edges get aa x aa samples
                            (odd; 1: off; 0, the default: 3 from 200k pixels up, 5 from
                            20k, 7 below) */
-    int edge_refine;    /* 1: edge pixels whose samples see a strong contrast of a point,
-                           spot or directional light's irradiance get 16 more samples of
-                           it (default 0) */
+    int edge_refine;    /* 1 (default): edge pixels whose samples see a strong contrast of
+                           a point, spot or directional light's irradiance (more than 8x
+                           its mean over the image) get 16 more samples of it; 0: off */
+    float refine_contrast; /* that multiple (default 8) */
     int coverage;       /* with aa >= 3: each edge pixel's samples weighted by their share
                            of coverage x coverage camera rays (0, the default: aa + 4;
                            1: equal shares) */

@@ -49,9 +49,12 @@ static void help(void)
            "  --coverage N            weigh an edge pixel's samples by the share of the pixel each\n"
            "                          sees, from N x N camera rays (light moves cost the same;\n"
            "                          default: aa + 4; 1 gives every sample an equal share)\n"
-           "  --edge-refine           a light's sunlit-against-shade edge pixels get 16 more samples\n"
-           "                          for it, found when first needed (off by default: on Sponza\n"
-           "                          0.0003-0.0008 nrmse better with the coverage shares)\n"
+           "  --edge-refine, --no-edge-refine\n"
+           "                          an edge pixel whose samples see a light's irradiance span more\n"
+           "                          than 8x its mean over the image (sunlit against shade) gets 16\n"
+           "                          more samples of it, found when first needed (default: on)\n"
+           "  --refine-contrast X     that multiple of the mean (default 8; 1 refines ~2.5x as many\n"
+           "                          pixels for little more accuracy)\n"
            "  --glossy-rays N         a glossy surface's pixel reflects indirect light from N rays of\n"
            "                          its lobe, traced once per view, averaged over 5 x 5 pixels of\n"
            "                          its surface (default 36; 0: the gathering points' linear fit)\n"
@@ -71,7 +74,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_INTERP };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_INTERP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static uint32_t key_at(const void *ctx, const float p[3], const float n[3])
@@ -148,7 +151,7 @@ int main(int argc, char **argv)
         {"png", no_argument, 0, OPT_PNG},        {"exposure", required_argument, 0, OPT_EXPO},
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
-        {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF},
+        {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF}, {"no-edge-refine", no_argument, 0, OPT_NOEREF}, {"refine-contrast", required_argument, 0, OPT_RCON},
         {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"interp", required_argument, 0, OPT_INTERP},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
@@ -177,6 +180,8 @@ int main(int argc, char **argv)
                 gi_usage_error("--aa: expected an odd number (1, 3, 5 or 7), got %d", so.aa);
             break;
         case OPT_EREF: so.edge_refine = 1; break;
+        case OPT_NOEREF: so.edge_refine = 0; break;
+        case OPT_RCON: so.refine_contrast = (float)gi_opt_double("--refine-contrast", optarg, 0.01, 1e6); break;
         case OPT_COV: so.coverage = (int)gi_opt_long("--coverage", optarg, 1, 31); break;
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
         case OPT_GPTS: gpts = 1; break;

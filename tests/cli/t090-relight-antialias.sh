@@ -72,16 +72,17 @@ expect_success "relight, one unfiltered sample per pixel" gi-relight -q "${in[@]
 expect_success "relight, texture filter only" gi-relight -q "${in[@]}" -o "$TMP/tex" --aa 1
 expect_success "relight, edge samples only" gi-relight -q "${in[@]}" -o "$TMP/edge" --tex-filter off
 # the sun from the camera's side: the sunlit wall's top edge against the sky
-# is the contrast that --edge-refine samples more
+# is the contrast that --edge-refine samples more (here ~1.5x the sun's mean
+# irradiance over the view, hence --refine-contrast 1)
 sed 's/direction 0.35 -0.6 0.75/direction 0.35 -0.6 -0.75/' "$TMP/v.script" >"$TMP/front.script"
 in2=("$S" "$TMP/f.gip" "$TMP/f.gih" "$TMP/front.script")
 expect_success "reference of the front-lit frame, 256 spp" gi-compare render -q "$S" "$TMP/front.script" --spp 256 \
   -o "$TMP/ref2.exr"
-expect_success "relight, 3 x 3 edge samples" gi-relight -q "${in2[@]}" -o "$TMP/aa3" --aa 3
+expect_success "relight, 3 x 3 edge samples" gi-relight -q "${in2[@]}" -o "$TMP/aa3" --aa 3 --no-edge-refine
 expect_success "relight, 3 x 3 edge samples of equal shares" gi-relight -q "${in2[@]}" -o "$TMP/aa3c1" --aa 3 \
-  --coverage 1
+  --coverage 1 --no-edge-refine
 expect_success "relight, 3 x 3 edge samples of equal shares and --edge-refine" gi-relight -q "${in2[@]}" \
-  -o "$TMP/ref3" --aa 3 --coverage 1 --edge-refine
+  -o "$TMP/ref3" --aa 3 --coverage 1 --edge-refine --refine-contrast 1
 err() { gi-compare diff "$TMP/$1/lit.exr" "$TMP/ref.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }'; }
 e_def=$(err def) e_raw=$(err raw) e_tex=$(err tex) e_edge=$(err edge)
 err2() { gi-compare diff "$TMP/$1/lit.exr" "$TMP/ref2.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }'; }
