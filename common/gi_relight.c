@@ -80,6 +80,9 @@ struct gi_relight {
     float *slot_rad;
     uint32_t num_slots;
     float *gp_e;          /* 3 per gathering point */
+    uint32_t *gp_gen;     /* per gathering point: the light state (gen) gp_e and gp_t were gathered for */
+    uint32_t gen;         /* bumped by every gi_relight_set_lights: the points are gathered when asked for */
+    uint32_t *gather_list; /* scratch of gi_relight_gather: the stale points asked for */
     float *gp_t;          /* 9 per gathering point: tangential gradient of incident radiance (NULL: no GDIR) */
     int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
     /* gi_relight_key_at: photons in a hash grid of cell kcell (CSR by bucket) */
@@ -107,11 +110,13 @@ static int alloc_all(gi_relight *r)
     r->key_start = gi_calloc_large(K + 2, sizeof *r->key_start);
     r->key_photon = gi_alloc_large((P + 1) * sizeof *r->key_photon);
     r->gp_e = gi_calloc_large(3 * (size_t)r->h->num_gpoints + 3, sizeof *r->gp_e);
+    r->gp_gen = gi_calloc_large((size_t)r->h->num_gpoints + 1, sizeof *r->gp_gen);
+    r->gather_list = gi_alloc_large(((size_t)r->h->num_gpoints + 1) * sizeof *r->gather_list);
     if (r->h->pair_dir && !(r->gp_t = gi_calloc_large(9 * (size_t)r->h->num_gpoints + 9, sizeof *r->gp_t)))
         return -1;
     return r->refl && r->flux && r->entry_pos && r->entry_nrm && r->entry_texel && r->entry_fd && r->key_flux && r->key_rad &&
                    r->key_start &&
-                   r->key_photon && r->gp_e
+                   r->key_photon && r->gp_e && r->gp_gen && r->gather_list
                ? 0
                : -1;
 }
@@ -269,6 +274,8 @@ void gi_relight_free(gi_relight *r)
     free(r->slot_rad);
     free(r->gp_e);
     free(r->gp_t);
+    free(r->gp_gen);
+    free(r->gather_list);
     free(r->kb_start);
     free(r->kb_photon);
     free(r->kpos);
@@ -619,10 +626,8 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             for (int c = 0; c < 3; c++)
                 r->key_flux0[3 * (size_t)p + c] += r->key_flux0[3 * (size_t)k + c];
     }
-    double t3 = gi_now();
-    /* 4. gathering points: E = sum over rays of L(key) * pi / N, L = flux * scale;
-     * the per-key factor is taken once here so the pair loop reads one
-     * 16-byte record per ray */
+    /* the per-key factor of step 4 (gi_relight_gather), taken once here so
+     * its pair loop reads one 16-byte record per ray */
     float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
 #pragma omp parallel for schedule(static) num_threads(r->threads)
     for (uint32_t k = 0; k < K; k++) {
@@ -643,85 +648,16 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             r->slot_rad[4 * (size_t)q + c] = (float)v;
         }
     }
-#pragma omp parallel for schedule(static) num_threads(r->threads)
-    for (uint32_t i = 0; i < h->num_gpoints; i++) {
-        const gi_gpoint *gp = &h->gpoints[i];
-        double a[3] = {0, 0, 0};
-        {
-            /* four floats a key (RGB and a pad), summed in float lanes: a
-             * point has at most 1024 pairs, so float keeps ~1e-5 of the sum;
-             * two accumulators halve the dependency chain */
-            v4f s0 = {0, 0, 0, 0}, s1 = {0, 0, 0, 0};
-            const uint32_t *pk = h->pair_key + gp->first_pair;
-            const uint16_t *pc = h->pair_count + gp->first_pair;
-            uint32_t npair = gp->num_pairs, j = 0;
-            for (; j + 1 < npair; j += 2) {
-                v4f l0, l1;
-                memcpy(&l0, r->key_rad + 4 * (size_t)pk[j], sizeof l0);
-                memcpy(&l1, r->key_rad + 4 * (size_t)pk[j + 1], sizeof l1);
-                s0 += l0 * (float)pc[j];
-                s1 += l1 * (float)pc[j + 1];
-            }
-            if (j < npair) {
-                v4f l0;
-                memcpy(&l0, r->key_rad + 4 * (size_t)pk[j], sizeof l0);
-                s0 += l0 * (float)pc[j];
-            }
-            s0 += s1;
-            a[0] = s0[0];
-            a[1] = s0[1];
-            a[2] = s0[2];
-        }
-        if (r->key_mid) {
-            uint32_t j0 = h->split_first[i], j2 = j0 + h->split_n0[i] + h->split_n1[i];
-            const uint32_t *sl = r->split_slot;
-            const uint16_t *sc = h->split_count;
-            v4f s0 = {0, 0, 0, 0};
-            for (uint32_t j = j0; j < j2; j++) {
-                v4f l0;
-                memcpy(&l0, r->slot_rad + 4 * (size_t)sl[j], sizeof l0);
-                s0 += l0 * (float)sc[j];
-            }
-            a[0] += s0[0];
-            a[1] += s0[1];
-            a[2] += s0[2];
-        }
-        r->gp_e[3 * i] = (float)a[0];
-        r->gp_e[3 * i + 1] = (float)a[1];
-        r->gp_e[3 * i + 2] = (float)a[2];
-        if (r->gp_t && r->any_glossy) {
-            /* the cosine-weighted first moment M1 = (1/N) sum L w of the
-             * incident radiance; for L(w) = a + b.w its part tangential to the
-             * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n). Split rays
-             * (GSPL) have no directions and are left out of it */
-            double m[3][3] = {{0}};
-            for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
-                uint32_t k = h->pair_key[j];
-                double sc = (double)h->pair_count[j] * h->key_scale[k] / 127.0;
-                const int8_t *d = h->pair_dir + 3 * (size_t)j;
-                for (int c = 0; c < 3; c++) {
-                    double L = sc * r->key_flux[3 * (size_t)k + c];
-                    m[c][0] += L * d[0];
-                    m[c][1] += L * d[1];
-                    m[c][2] += L * d[2];
-                }
-            }
-            double inv = 4.0 * w / GI_PI;
-            for (int c = 0; c < 3; c++) {
-                double dn = m[c][0] * gp->nrm[0] + m[c][1] * gp->nrm[1] + m[c][2] * gp->nrm[2];
-                for (int x = 0; x < 3; x++)
-                    r->gp_t[9 * (size_t)i + 3 * c + x] = (float)((m[c][x] - dn * gp->nrm[x]) * inv);
-            }
-        }
-    }
+    /* 4. the gathering points: when asked for (gi_relight_gather), only
+     * those a view reads */
+    r->gen++;
     double t4 = gi_now();
-    gi_verbose("photon energies: entry-point rays %.1f ms, entry flux %.1f ms, along the paths %.1f ms; keys %.1f ms, "
-               "gathering points %.1f ms",
-               1e3 * (t0b - t0), 1e3 * (t1 - t0b), 1e3 * (t2 - t1), 1e3 * (t3 - t2), 1e3 * (t4 - t3));
+    gi_verbose("photon energies: entry-point rays %.1f ms, entry flux %.1f ms, along the paths %.1f ms; keys %.1f ms",
+               1e3 * (t0b - t0), 1e3 * (t1 - t0b), 1e3 * (t2 - t1), 1e3 * (t4 - t2));
     r->times.entry = t1 - t0;
     r->times.photons = t2 - t1;
-    r->times.hvds = t3 - t2;
-    r->times.gather = t4 - t3;
+    r->times.hvds = t4 - t2;
+    r->times.gather = 0.0;
     return 0;
 }
 
@@ -877,7 +813,114 @@ uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[
     return k == GI_HVDS_NO_KEY ? k : r->klift[k];
 }
 
-const float *gi_relight_gpoint_irradiance(const gi_relight *r) { return r->gp_e; }
-const float *gi_relight_gpoint_gradient(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }
+
+/* Step 4 for the gathering points idx[0..n) (idx NULL: all) not yet gathered
+ * since the last gi_relight_set_lights: E = sum over rays of L(key) * pi / N,
+ * L = flux * scale, from the per-key factor of set_lights, so the pair loop
+ * reads one 16-byte record per ray. A view reads a small share of the points
+ * (Sponza, 640x480: ~X of 162,880), so a light move gathers only those and a
+ * camera move the ones it newly sees. */
+void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
+{
+    const gi_hvds *h = r->h;
+    if (!idx)
+        n = h->num_gpoints;
+    size_t ns = 0;
+    for (size_t q = 0; q < n; q++) {
+        uint32_t i = idx ? idx[q] : (uint32_t)q;
+        if (i < h->num_gpoints && r->gp_gen[i] != r->gen) {
+            r->gp_gen[i] = r->gen; /* listed once, however often asked for */
+            r->gather_list[ns++] = i;
+        }
+    }
+    if (!ns)
+        return;
+    float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
+#pragma omp parallel for schedule(dynamic, 256) num_threads(r->threads)
+    for (size_t q = 0; q < ns; q++) {
+        const uint32_t i = r->gather_list[q];
+        const gi_gpoint *gp = &h->gpoints[i];
+        double a[3] = {0, 0, 0};
+        {
+            /* four floats a key (RGB and a pad), summed in float lanes: a
+             * point has at most 1024 pairs, so float keeps ~1e-5 of the sum;
+             * two accumulators halve the dependency chain */
+            v4f s0 = {0, 0, 0, 0}, s1 = {0, 0, 0, 0};
+            const uint32_t *pk = h->pair_key + gp->first_pair;
+            const uint16_t *pc = h->pair_count + gp->first_pair;
+            uint32_t npair = gp->num_pairs, j = 0;
+            for (; j + 1 < npair; j += 2) {
+                v4f l0, l1;
+                memcpy(&l0, r->key_rad + 4 * (size_t)pk[j], sizeof l0);
+                memcpy(&l1, r->key_rad + 4 * (size_t)pk[j + 1], sizeof l1);
+                s0 += l0 * (float)pc[j];
+                s1 += l1 * (float)pc[j + 1];
+            }
+            if (j < npair) {
+                v4f l0;
+                memcpy(&l0, r->key_rad + 4 * (size_t)pk[j], sizeof l0);
+                s0 += l0 * (float)pc[j];
+            }
+            s0 += s1;
+            a[0] = s0[0];
+            a[1] = s0[1];
+            a[2] = s0[2];
+        }
+        if (r->key_mid) {
+            uint32_t j0 = h->split_first[i], j2 = j0 + h->split_n0[i] + h->split_n1[i];
+            const uint32_t *sl = r->split_slot;
+            const uint16_t *sc = h->split_count;
+            v4f s0 = {0, 0, 0, 0};
+            for (uint32_t j = j0; j < j2; j++) {
+                v4f l0;
+                memcpy(&l0, r->slot_rad + 4 * (size_t)sl[j], sizeof l0);
+                s0 += l0 * (float)sc[j];
+            }
+            a[0] += s0[0];
+            a[1] += s0[1];
+            a[2] += s0[2];
+        }
+        r->gp_e[3 * i] = (float)a[0];
+        r->gp_e[3 * i + 1] = (float)a[1];
+        r->gp_e[3 * i + 2] = (float)a[2];
+        if (r->gp_t && r->any_glossy) {
+            /* the cosine-weighted first moment M1 = (1/N) sum L w of the
+             * incident radiance; for L(w) = a + b.w its part tangential to the
+             * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n). Split rays
+             * (GSPL) have no directions and are left out of it */
+            double m[3][3] = {{0}};
+            for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
+                uint32_t k = h->pair_key[j];
+                double sc = (double)h->pair_count[j] * h->key_scale[k] / 127.0;
+                const int8_t *d = h->pair_dir + 3 * (size_t)j;
+                for (int c = 0; c < 3; c++) {
+                    double L = sc * r->key_flux[3 * (size_t)k + c];
+                    m[c][0] += L * d[0];
+                    m[c][1] += L * d[1];
+                    m[c][2] += L * d[2];
+                }
+            }
+            double inv = 4.0 * w / GI_PI;
+            for (int c = 0; c < 3; c++) {
+                double dn = m[c][0] * gp->nrm[0] + m[c][1] * gp->nrm[1] + m[c][2] * gp->nrm[2];
+                for (int x = 0; x < 3; x++)
+                    r->gp_t[9 * (size_t)i + 3 * c + x] = (float)((m[c][x] - dn * gp->nrm[x]) * inv);
+            }
+        }
+    }
+}
+
+const float *gi_relight_gpoint_irradiance(gi_relight *r)
+{
+    gi_relight_gather(r, NULL, 0);
+    return r->gp_e;
+}
+const float *gi_relight_gpoint_gradient(gi_relight *r)
+{
+    gi_relight_gather(r, NULL, 0);
+    return r->any_glossy ? r->gp_t : NULL;
+}
+const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r) { return r->gp_e; }
+const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }
 const float *gi_relight_key_flux(const gi_relight *r) { return r->key_flux; }
 const gi_relight_times *gi_relight_times_last(const gi_relight *r) { return &r->times; }

@@ -32,7 +32,7 @@ typedef struct gi_relight_times {
     double entry;     /* entry-point flux from the lights (s) */
     double photons;   /* flux along the paths */
     double hvds;      /* accumulation into keys and up the hierarchy */
-    double gather;    /* irradiance at gathering points */
+    double gather;    /* irradiance at gathering points (0: gi_relight_gather does it, on demand) */
     double materials; /* reflectance recomputation after a material change */
 } gi_relight_times;
 
@@ -44,18 +44,28 @@ void gi_relight_free(gi_relight *r);
 int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsigned char *changed,
                              gi_status *st);
 /* Lights of the frame (disabled ones are skipped); area lights get
- * `area_samples` jittered samples per entry point. Runs steps 1-4. */
+ * `area_samples` jittered samples per entry point. Runs steps 1-3; step 4,
+ * the gathering points, waits until they are asked for (gi_relight_gather). */
 int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int area_samples,
                           gi_status *st);
-/* Indirect irradiance (lux, RGB) at each gathering point: 3 floats per point. */
-const float *gi_relight_gpoint_irradiance(const gi_relight *r);
+/* Step 4 for the gathering points idx[0..n) (idx NULL: all of them) that were
+ * not gathered since the last gi_relight_set_lights. */
+void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n);
+/* Indirect irradiance (lux, RGB) at each gathering point: 3 floats per point
+ * (gathers every point first). */
+const float *gi_relight_gpoint_irradiance(gi_relight *r);
 /* Per gathering point, 9 floats: for each of R, G, B the tangential part b_t
  * (cd/m^2 per unit direction) of a linear fit L(w) = E / pi + b_t . w of the
- * incident radiance, from the mean ray direction of each (key, count) pair.
+ * incident radiance, from the mean ray direction of each (key, count) pair
+ * (gathers every point first).
  * gi_shade uses it for low-frequency glossy reflection. NULL when the .gih has
  * no GDIR section (format 1.0) or no material of the last
  * gi_relight_set_materials has a glossy lobe (then it is not computed). */
-const float *gi_relight_gpoint_gradient(const gi_relight *r);
+const float *gi_relight_gpoint_gradient(gi_relight *r);
+/* The same arrays, where only the points gathered since the last
+ * gi_relight_set_lights hold this light's values (gi_shade_opts.gather). */
+const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r);
+const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r);
 /* Flux (RGB) accumulated in each key (after set_lights). */
 const float *gi_relight_key_flux(const gi_relight *r);
 /* Ready gi_relight_key_at: a hash grid over the photon vertices (built once,

@@ -130,6 +130,10 @@ struct gi_shade {
     size_t cap_px, cap_sf, cap_eidx, cap_epix, cap_esf, cap_esrc, cap_ehard, cap_rec, cap_erec, cap_cind, cap_svalid, cap_ew;
     size_t nedge;
     int ne;
+    /* the gathering points the view's records read, sorted (opts.gather) */
+    uint32_t *vgp;
+    size_t nvgp, cap_vgp;
+    uint64_t *vbits;    /* scratch: one bit per gathering point */
     /* direct light per light, per pixel, for the current view (view_id):
      * a frame reuses it for every light unchanged since, and recomputes only
      * the pixels that see a changed material */
@@ -372,6 +376,8 @@ void gi_shade_free(gi_shade *sh)
     free(sh->gterm);
     free(sh->gdo);
     free(sh->cind);
+    free(sh->vgp);
+    free(sh->vbits);
     free_xsf(sh);
     for (int i = 0; i < GI_SHADE_DCACHE; i++) {
         free(sh->dc[i].rgb);
@@ -1278,8 +1284,32 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t i = 0; i < sh->nedge * (size_t)sh->ne; i++)
         pack_rec(&sh->esf[i], &sh->erec[i]);
-    gi_verbose("view: rasterise %.1f ms, %zu surfaces and weights %.1f ms, edge samples %.1f ms",
-               1e3 * (tv1 - tv0), ns, 1e3 * (tv2 - tv1), 1e3 * (gi_now() - tv2));
+    /* the gathering points the records read */
+    {
+        size_t nb = ((size_t)sh->h->num_gpoints + 63) / 64, ne = sh->nedge * (size_t)sh->ne;
+        if (!sh->vbits && !(sh->vbits = calloc(nb + 1, sizeof *sh->vbits)))
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        memset(sh->vbits, 0, (nb + 1) * sizeof *sh->vbits);
+        for (size_t i = 0; i < ns + ne; i++) {
+            const ssurf *o = i < ns ? &sh->sf[i] : &sh->esf[i - ns];
+            for (int q = 0; o->valid && q < o->npairs; q++)
+                sh->vbits[o->gp[q] >> 6] |= 1ull << (o->gp[q] & 63);
+        }
+        size_t n = 0;
+        for (size_t b = 0; b < nb; b++)
+            n += (size_t)__builtin_popcountll(sh->vbits[b]);
+        RESERVE(vgp, n + 1);
+        if (!sh->vgp)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        n = 0;
+        for (size_t b = 0; b < nb; b++)
+            for (uint64_t m = sh->vbits[b]; m; m &= m - 1)
+                sh->vgp[n++] = (uint32_t)(b * 64 + (size_t)__builtin_ctzll(m));
+        sh->nvgp = n;
+    }
+    gi_verbose("view: rasterise %.1f ms, %zu surfaces and weights %.1f ms, edge samples %.1f ms; it reads %zu of %u "
+               "gathering points",
+               1e3 * (tv1 - tv0), ns, 1e3 * (tv2 - tv1), 1e3 * (gi_now() - tv2), sh->nvgp, sh->h->num_gpoints);
     sh->pw = w;
     sh->ph = h;
     sh->pss = ss;
@@ -2392,6 +2422,9 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     if (has_area && o->direct) /* light seen without a bounce: part of the direct light */
         visible_area_lights(sh, cam, w, h, lights, num_lights, rgb, threads);
     double t2 = gi_now();
+    if (o->indirect && gpe && o->gather)
+        o->gather(o->gather_ctx, sh->vgp, sh->nvgp);
+    double t2g = gi_now();
     /* pass 2: indirect light from the cached interpolation weights: each
      * sf sample from its packed record, then each pixel's average, where an
      * edge sample that reused a neighbour's weights takes its value */
@@ -2528,7 +2561,8 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     if (times) {
         times->gbuffer = t1 - t0;
         times->direct = t2 - t1;
-        times->splat = t3 - t2;
+        times->gather = t2g - t2;
+        times->splat = t3 - t2g;
     }
     return 0;
 }

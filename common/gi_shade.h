@@ -58,6 +58,11 @@ typedef struct gi_shade_opts {
     uint32_t (*key_at)(const void *ctx, const float p[3], const float n[3]);
     const void *key_ctx;
     const float *key_flux;
+    /* NULL, or called before the indirect light with the gathering points
+     * the view reads (sorted, each once), so that only those need values
+     * (gi_relight_gather); gather_ctx is its first argument */
+    void (*gather)(void *ctx, const uint32_t *idx, size_t n);
+    void *gather_ctx;
     int no_cache;       /* 1: recompute every light's direct light every frame (tests
                            compare it with the cached path; gi-relight sets it when
                            GI_RELIGHT_NO_CACHE=1) */
@@ -66,6 +71,7 @@ typedef struct gi_shade_opts {
 typedef struct gi_shade_times {
     double gbuffer;     /* rasterisation + read-back (0 when reused) */
     double direct;      /* direct light */
+    double gather;      /* opts.gather, for the points the view reads */
     double splat;       /* indirect interpolation ("splatting") and composition */
 } gi_shade_times;
 

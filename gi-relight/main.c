@@ -77,6 +77,8 @@ static void help(void)
 enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_INTERP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
+static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
+
 static uint32_t key_at(const void *ctx, const float p[3], const float n[3])
 {
     return gi_relight_key_at((const gi_relight *)ctx, p, n);
@@ -225,6 +227,7 @@ int main(int argc, char **argv)
     if (!outdir)
         gi_usage_error("missing -o OUTDIR");
     so.threads = threads;
+    so.gather = gather_points;
     {
         const char *nc = getenv("GI_RELIGHT_NO_CACHE");
         so.no_cache = nc && !strcmp(nc, "1");
@@ -315,6 +318,7 @@ int main(int argc, char **argv)
         rc = gi_rt_new(s, &rt, &st);
     if (!rc)
         rc = gi_relight_new(s, rt, gip, h, threads, so.seed, &rl, &st);
+    so.gather_ctx = rl;
     if (!rc)
         rc = gi_gbuffer_new(s, &gb, &st);
     if (!rc)
@@ -448,7 +452,8 @@ int main(int argc, char **argv)
         }
         gi_shade_times stt;
         if ((rc = gi_shade_frame(sh, gb, &fr.camera, fr.width, fr.height, flights, nfl, fr.materials,
-                                 gi_relight_gpoint_irradiance(rl), gi_relight_gpoint_gradient(rl), &so, rgb, &stt,
+                                 gi_relight_gpoint_irradiance_lazy(rl), gi_relight_gpoint_gradient_lazy(rl), &so, rgb,
+                                 &stt,
                                  &st)))
             break;
         double f1 = gi_now();
@@ -484,11 +489,11 @@ int main(int argc, char **argv)
         if (tf)
             fprintf(tf, "%zu,%s,%s,%d,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", i, fr.name, chg, fr.width,
                     fr.height, 1e3 * stt.direct, 1e3 * (rt_t.entry + rt_t.photons), 1e3 * rt_t.hvds,
-                    1e3 * rt_t.gather, 1e3 * stt.splat, 1e3 * tmat, 1e3 * stt.gbuffer, 1e3 * total);
+                    1e3 * (rt_t.gather + stt.gather), 1e3 * stt.splat, 1e3 * tmat, 1e3 * stt.gbuffer, 1e3 * total);
         gi_info("frame %zu '%s' (%s): %.1f ms (direct %.1f, photons %.1f, hvds %.1f, gather %.1f, splat %.1f, "
                 "materials %.1f, G-buffer %.1f)",
                 i, fr.name, chg, 1e3 * total, 1e3 * stt.direct, 1e3 * (rt_t.entry + rt_t.photons), 1e3 * rt_t.hvds,
-                1e3 * rt_t.gather, 1e3 * stt.splat, 1e3 * tmat, 1e3 * stt.gbuffer);
+                1e3 * (rt_t.gather + stt.gather), 1e3 * stt.splat, 1e3 * tmat, 1e3 * stt.gbuffer);
         gi_frame_release(&fr);
     }
     gi_frame_release(&fr);

@@ -83,7 +83,10 @@ check "timings: a camera move changed 'camera'" [ "$(col "$T" 2 changed)" = came
 check "timings: a moved light changed 'lights'" [ "$(col "$T" 3 changed)" = lights ]
 check "timings: a recoloured wall changed 'materials'" [ "$(col "$T" 4 changed)" = materials ]
 check "timings: width and height" [ "$(col "$T" 4 width)x$(col "$T" 4 height)" = 64x64 ]
-for s in t_photon_energies_ms t_hvds_ms t_final_gather_ms t_materials_ms; do
+# (the final gather runs on demand, for the gathering points a view reads: a
+# camera move gathers those it sees for the first time since the lights
+# changed, so its t_final_gather_ms need not be 0; test_hvds checks the values)
+for s in t_photon_energies_ms t_hvds_ms t_materials_ms; do
   check "a camera move skips the object-space stages ($s = $(col "$T" 2 $s))" [ "$(col "$T" 2 $s)" = 0.000 ]
 done
 check "a light move recomputes the photon energies ($(col "$T" 3 t_photon_energies_ms) ms)" \
