@@ -110,6 +110,10 @@ struct gi_shade {
     srec *rec, *erec;
     uint32_t *esrc;
     uint8_t *svalid;    /* per sf sample: its valid flag, for scans that need no more of it */
+    /* per sf and per esf sample: its material (UINT32_MAX: not valid), for
+     * the scans of every frame that need no more of it (a 144-byte ssurf
+     * each read cost Sponza's light moves ~1 cache miss per sample) */
+    uint32_t *smat, *esmat;
     ssurf **xsf;        /* per edge pixel: GI_SHADE_XN refinement samples, made when first needed (or NULL) */
     size_t nxsf;        /* entries of xsf */
     uint8_t *ehard;     /* per edge pixel: its samples see more than one material, texel or the background */
@@ -128,6 +132,7 @@ struct gi_shade {
     /* capacities (elements) of the per-view arrays: a camera move reuses
      * them, since fresh pages cost a fault each (~30% of a camera move) */
     size_t cap_px, cap_sf, cap_eidx, cap_epix, cap_esf, cap_esrc, cap_ehard, cap_rec, cap_erec, cap_cind, cap_svalid, cap_ew;
+    size_t cap_smat, cap_esmat;
     size_t nedge;
     int ne;
     /* the gathering points the view's records read, sorted (opts.gather) */
@@ -370,6 +375,8 @@ void gi_shade_free(gi_shade *sh)
     free(sh->ehard);
     free(sh->ew);
     free(sh->svalid);
+    free(sh->smat);
+    free(sh->esmat);
     free(sh->gkey);
     free(sh->gcos);
     free(sh->gexp);
@@ -1274,16 +1281,21 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
     RESERVE(erec, sh->nedge * (size_t)sh->ne + 1);
     RESERVE(cind, 3 * ns + 1);
     RESERVE(svalid, ns + 1);
-    if (!sh->rec || !sh->erec || !sh->cind || !sh->svalid)
+    RESERVE(smat, ns + 1);
+    RESERVE(esmat, sh->nedge * (size_t)sh->ne + 1);
+    if (!sh->rec || !sh->erec || !sh->cind || !sh->svalid || !sh->smat || !sh->esmat)
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu splat records", ns);
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t i = 0; i < ns; i++) {
         pack_rec(&sh->sf[i], &sh->rec[i]);
         sh->svalid[i] = sh->sf[i].valid;
+        sh->smat[i] = sh->sf[i].valid ? sh->sf[i].material : UINT32_MAX;
     }
 #pragma omp parallel for schedule(static) num_threads(threads)
-    for (size_t i = 0; i < sh->nedge * (size_t)sh->ne; i++)
+    for (size_t i = 0; i < sh->nedge * (size_t)sh->ne; i++) {
         pack_rec(&sh->esf[i], &sh->erec[i]);
+        sh->esmat[i] = sh->esf[i].valid ? sh->esf[i].material : UINT32_MAX;
+    }
     /* the gathering points the records read */
     {
         size_t nb = ((size_t)sh->h->num_gpoints + 63) / 64, ne = sh->nedge * (size_t)sh->ne;
@@ -2046,8 +2058,9 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
             }
             for (size_t i = 0; i < n; i++) {
                 size_t e = e0 + i / (size_t)NE, j = i % (size_t)NE;
-                const ssurf *sf = &sh->esf[e * (size_t)NE + j];
-                samp[i] = !skip[e - e0] && (!mask || mask[sh->epix[e]]) && sf->valid ? sf : NULL;
+                size_t q = e * (size_t)NE + j;
+                samp[i] = !skip[e - e0] && (!mask || mask[sh->epix[e]]) && sh->esmat[q] != UINT32_MAX ? &sh->esf[q]
+                                                                                                       : NULL;
                 ids[i] = (uint64_t)sh->epix[e] * 64u + 1u + (uint64_t)j;
             }
             light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, NULL, cnt, ec ? ev : NULL);
@@ -2062,8 +2075,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                     continue;
                 float lo = ec[sh->epix[e]], hi = lo;
                 for (int j = 0; j < NE; j++) {
-                    const ssurf *sf = &sh->esf[e * (size_t)NE + (size_t)j];
-                    float v0 = sf->valid ? ev[(e - e0) * (size_t)NE + (size_t)j] : 0.0f;
+                    float v0 = sh->esmat[e * (size_t)NE + (size_t)j] != UINT32_MAX ? ev[(e - e0) * (size_t)NE + (size_t)j]
+                                                                                   : 0.0f;
                     lo = fminf(lo, v0);
                     hi = fmaxf(hi, v0);
                 }
@@ -2302,13 +2315,13 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         }
         for (size_t pix = 0; pix < np; pix++) {
             for (int k = 0; k < S && !mask[pix]; k++) {
-                const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-                mask[pix] = sf->valid && mchanged[sf->material];
+                uint32_t mt = sh->smat[(size_t)k * np + pix];
+                mask[pix] = mt != UINT32_MAX && mchanged[mt];
             }
             uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
             for (int j = 0; e != UINT32_MAX && j < NE && !mask[pix]; j++) {
-                const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
-                mask[pix] = sf->valid && mchanged[sf->material];
+                uint32_t mt = sh->esmat[(size_t)e * (size_t)NE + (size_t)j];
+                mask[pix] = mt != UINT32_MAX && mchanged[mt];
             }
         }
         free(sh->pmats);
@@ -2321,30 +2334,37 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     /* pass 1: emission (light that reaches the camera without a bounce:
      * part of the direct light), then each light's direct light from its
      * cache or computed (shadow rays as packets) */
+    int emits = 0; /* some material emits: else pass 1 starts from black */
+    for (size_t m = 0; m < nm && o->direct; m++)
+        emits |= gi_maxc(gi_v3p(mats[m].emission)) > 0.0f;
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t pix = 0; pix < np; pix++) {
+        if (!emits) {
+            rgb[3 * pix] = rgb[3 * pix + 1] = rgb[3 * pix + 2] = 0.0f;
+            continue;
+        }
         gi_vec3 sum = gi_v3(0, 0, 0);
         int count = S;
         for (int k = 0; k < S && o->direct; k++) {
-            const ssurf *sf = &sh->sf[(size_t)k * np + pix];
-            if (sf->valid)
-                sum = gi_add(sum, gi_v3p(mats[sf->material].emission));
+            uint32_t mt = sh->smat[(size_t)k * np + pix];
+            if (mt != UINT32_MAX)
+                sum = gi_add(sum, gi_v3p(mats[mt].emission));
         }
         uint32_t e = sh->eidx ? sh->eidx[pix] : UINT32_MAX;
         if (e != UINT32_MAX && sh->ew) {
             const float *ew = sh->ew + (size_t)e * (size_t)(NE + 1);
             sum = gi_scale(sum, ew[NE]);
             for (int j = 0; j < NE && o->direct; j++) {
-                const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
-                if (sf->valid)
-                    sum = gi_madd(sum, gi_v3p(mats[sf->material].emission), ew[j]);
+                uint32_t mt = sh->esmat[(size_t)e * (size_t)NE + (size_t)j];
+                if (mt != UINT32_MAX)
+                    sum = gi_madd(sum, gi_v3p(mats[mt].emission), ew[j]);
             }
             count = 1;
         } else if (e != UINT32_MAX) {
             for (int j = 0; j < NE && o->direct; j++) {
-                const ssurf *sf = &sh->esf[(size_t)e * (size_t)NE + (size_t)j];
-                if (sf->valid)
-                    sum = gi_add(sum, gi_v3p(mats[sf->material].emission));
+                uint32_t mt = sh->esmat[(size_t)e * (size_t)NE + (size_t)j];
+                if (mt != UINT32_MAX)
+                    sum = gi_add(sum, gi_v3p(mats[mt].emission));
             }
             count += NE;
         }
