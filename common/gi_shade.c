@@ -706,7 +706,15 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
  * sees nothing, other materials, a crease (shading normals > ~18 deg apart)
  * or a depth step (b off a's plane by more than 4 pixel footprints, or by
  * half of one between triangles whose texels differ by over 20%). */
+static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int *texel);
 static int discontinuity(const ssurf *a, const ssurf *b, float pix_angle)
+{
+    return discontinuity_tx(a, b, pix_angle, NULL);
+}
+
+/* discontinuity, except that with texel != NULL a pair whose answer depends
+ * on a's texel sets *texel = 1 and gives 0 (a's texel not looked up yet) */
+static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int *texel)
 {
     if (a->valid != b->valid)
         return 1;
@@ -728,6 +736,10 @@ static int discontinuity(const ssurf *a, const ssurf *b, float pix_angle)
      * 0.037 / 0.046; Sponza: 581 -> 870 such pixels, sun-b, sun-moved,
      * arcade-moved 0.1212, 0.0980, 0.0870 -> 0.1204, 0.0976, 0.0863 */
     if (a->tri != b->tri && off > 0.5f * fp) {
+        if (texel) {
+            *texel = 1;
+            return 0;
+        }
         float ta = gi_luminance(gi_v3p(a->texel)), tb = gi_luminance(gi_v3p(b->texel));
         if (fabsf(ta - tb) > 0.2f * fmaxf(ta, tb))
             return 4;
@@ -1836,6 +1848,17 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
  * from the pixel's own samples on the same surface, else the texture's value
  * at the point.
  * NULL when out of memory (the pixel then keeps its aa x aa estimate). */
+/* o->texel: the texture's value (unit base-colour factor) at the point hit
+ * found, as fill_sample's texf 0 gives it */
+static void point_texel(const gi_shade *sh, const gi_hit *hit, ssurf *o)
+{
+    gi_surface hs;
+    gi_rt_surface(sh->rt, hit, &hs);
+    gi_material unit = sh->s->materials[o->material];
+    unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+    gi_scene_base_color(sh->s, &unit, hs.uv0, hs.uv1, o->texel);
+}
+
 static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, size_t e)
 {
     if (sh->xsf[e])
@@ -1873,9 +1896,22 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
         o->valid = 0;
         o->npairs = 0;
         o->tsurf = INFINITY;
-        if (xfound[j]) /* as camera_sample: the texture's value at the point */
-            fill_sample(sh, cam, w, h, xhit[j].tri, xhit[j].u, xhit[j].v, fx, fy, step, 0, 0, o);
+        if (xfound[j]) /* the texel below */
+            fill_sample(sh, cam, w, h, xhit[j].tri, xhit[j].u, xhit[j].v, fx, fy, step, -1, 0, o);
         int ok = o->valid;
+        /* the texture's value at the point, looked up only where the tests
+         * below consult it (a step between triangles) or no sample lends
+         * one: most samples take the centre's or an edge sample's (its
+         * memory latency was most of a new refinement's ~20 us of CPU) */
+        int need = 0, have = 0;
+        for (int q = 0; ok && q <= sh->ne; q++) {
+            const ssurf *c = q < sh->ne ? &sh->esf[e * (size_t)sh->ne + (size_t)q] : &sh->sf[pix];
+            (void)discontinuity_tx(o, c, pix_angle, &need);
+        }
+        if (need) {
+            point_texel(sh, &xhit[j], o);
+            have = 1;
+        }
         if (sh->ew) {
             int g = nearest_same_surface(sh, e, o, fx, fy, sfx, sfy, w, pix_angle);
             grp[j] = (uint8_t)(g < 0 ? 255 : g);
@@ -1895,8 +1931,10 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
                 reused = 1;
             }
         }
-        /* else the texture at the point, as fill_sample left it: sixteen
-         * such samples average the texture over the pixel's part */
+        /* else the texture at the point: sixteen such samples average the
+         * texture over the pixel's part */
+        if (!reused && !have)
+            point_texel(sh, &xhit[j], o);
     }
     sh->xsf[e] = x;
     return x;
