@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "gi_brdf.h"
+#include "gi_emit.h"
 #include "gi_light.h"
 #include "gi_log.h"
 #include "gi_math.h"
@@ -1548,6 +1549,68 @@ static void sb_flush(sbatch *b)
  * random numbers come from (seed, id, l), so the image does not depend on the
  * thread count or the batching. Contributions are not yet divided by the
  * number of light samples. */
+/* The BSDF half of a mesh light's MIS estimate at p: nb = kb x kb
+ * stratified BSDF samples traced to the first surface; one that finds the
+ * emitting side of an emissive triangle adds its radiance with the power
+ * heuristic against nsmp light samples, scaled to stand for nsmp samples
+ * (the caller divides by them). Adds straight into acc[slot]. Returns how
+ * many found an emitter. With kb = ka / 2 (4 rays for 16 light samples, 16
+ * for the 64 of a penumbra): Sponza's round doors made emissive, 240 x 180
+ * against 512 spp (noise 0.053), nrmse 0.370 -> 0.115 (isolated door
+ * pixels up to 79 cd/m2 where the path tracer finds 42), the direct stage
+ * 3.2 -> 4.4 s; kb = ka / 4: 0.134, 3.7 s. The closed emissive box of t101:
+ * direct part 0.096 -> 0.024. */
+enum { SB_MIS_MAX = 8 }; /* kb at most: 64 BSDF rays */
+static int sb_mesh_bsdf(sbatch *b, const gi_bsdf *bs, const gi_light *lt, gi_vec3 p, gi_vec3 ng, gi_vec3 nsn,
+                        gi_vec3 wo, int nsmp, int nb, uint64_t seed, uint64_t id, uint64_t l, uint32_t slot)
+{
+    const gi_emit *e = lt->mesh;
+    int kb = 1;
+    while ((kb + 1) * (kb + 1) <= nb)
+        kb++;
+    gi_vec3 ro[SB_MIS_MAX * SB_MIS_MAX], rd[SB_MIS_MAX * SB_MIS_MAX], w[SB_MIS_MAX * SB_MIS_MAX];
+    float pdf[SB_MIS_MAX * SB_MIS_MAX];
+    gi_hit hit[SB_MIS_MAX * SB_MIS_MAX];
+    uint8_t found[SB_MIS_MAX * SB_MIS_MAX];
+    gi_rng rng;
+    gi_rng_seed(&rng, seed ^ 0x6d15b5dfull, id, l);
+    int n = 0;
+    for (int j = 0; j < kb * kb; j++) {
+        float u1 = ((float)(j % kb) + gi_rng_float(&rng)) / (float)kb;
+        float u2 = ((float)(j / kb) + gi_rng_float(&rng)) / (float)kb;
+        float u3 = gi_rng_float(&rng);
+        gi_vec3 wi;
+        if (!gi_bsdf_sample(bs, nsn, wo, u1, u2, u3, &wi, &w[n], &pdf[n]) || gi_dot(wi, ng) <= 0.0f ||
+            !(pdf[n] > 0.0f) || gi_maxc(w[n]) <= 0.0f)
+            continue;
+        ro[n] = gi_rt_offset(p, ng, wi);
+        rd[n] = wi;
+        n++;
+    }
+    if (!n)
+        return 0;
+    gi_rt_intersect_n(b->rt, n, ro, rd, 0.0f, hit, found);
+    gi_vec3 col = gi_scale(gi_v3p(lt->color), lt->intensity), sum = gi_v3(0, 0, 0);
+    int nhit = 0;
+    for (int q = 0; q < n; q++) {
+        if (!found[q] || hit[q].tri >= e->num_triangles)
+            continue;
+        int32_t k = e->index_of_tri[hit[q].tri];
+        if (k < 0)
+            continue;
+        gi_vec3 en = gi_v3p(e->geo + 12 * (size_t)k + 9);
+        if (gi_dot(en, rd[q]) >= 0.0f && !e->two_sided[k])
+            continue; /* its back: emits nothing this way */
+        float pl = (float)nsmp * gi_emit_pdf(e, hit[q].tri, rd[q], hit[q].t), pb = (float)kb * (float)kb * pdf[q];
+        float wgt = pb * pb / (pb * pb + pl * pl);
+        sum = gi_madd(sum, gi_mul(w[q], gi_mul(gi_v3p(e->le + 3 * (size_t)k), col)), wgt);
+        nhit++;
+    }
+    if (nhit)
+        b->acc[slot] = gi_madd(b->acc[slot], sum, (float)nsmp / (float)(kb * kb));
+    return nhit;
+}
+
 static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const gi_light *lt, uint64_t l, int ka,
                     uint64_t seed, uint64_t id, uint32_t slot)
 {
@@ -1576,6 +1639,12 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         if (b->n + nsmp > SB_CAP)
             sb_flush(b);
     }
+    /* a mesh light (emissive triangles) sampled by power spikes where a
+     * point lies close to an emitter, e.g. along a concave crease of an
+     * emissive surface, lit by the faces across it: nb BSDF samples more,
+     * with the power heuristic (sb_mesh_bsdf) */
+    const int mis = lt->type == GI_LIGHT_MESH && !analytic && lt->mesh;
+    const int kbs = ka >= 2 ? (ka / 2 < SB_MIS_MAX ? ka / 2 : SB_MIS_MAX) : 1, nb = mis ? kbs * kbs : 0;
     const int q0 = b->n;
     double wsum = 0.0;
     gi_rng_seed(&rng, seed, id, l);
@@ -1593,6 +1662,11 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         gi_vec3 f = gi_bsdf_eval(&bs, nsn, wo, ls.wi);
         if (gi_maxc(f) <= 0.0f)
             continue;
+        if (mis) {
+            /* MIS with the BSDF samples below, as the path tracer weighs them */
+            float pl = (float)nsmp * ls.pdf, pb = (float)nb * gi_bsdf_pdf(&bs, nsn, wo, ls.wi);
+            f = gi_scale(f, pl * pl / (pl * pl + pb * pb));
+        }
         if (b->n == SB_CAP)
             sb_flush(b);
         int q = b->n++;
@@ -1612,6 +1686,8 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
         for (int q = q0; q < b->n; q++)
             b->c[q] = gi_madd(b->c[q], ediff, b->wd[q] * inv);
     }
+    if (mis)
+        (void)sb_mesh_bsdf(b, &bs, lt, p, ng, nsn, wo, nsmp, nb, seed, id, l, slot);
     return queued;
 }
 
