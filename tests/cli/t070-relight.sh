@@ -135,20 +135,20 @@ expect_success "--edge-refine, frame lamp alone" "$GR" "${IN[@]}" "$TMP/v.script
 "$GC" diff "$TMP/er1/lamp.exr" "$TMP/er/lamp.exr" >"$TMP/stdout" 2>/dev/null
 check "--edge-refine lamp alone is the same as after the other frames (rms=$(val rms))" [ "$(val rms)" = 0 ]
 # Both light caches keep a few buffers allocated up front and reuse the least
-# recently used one: twelve states of a moving lamp beside a fixed one (more
-# states than either cache holds), then back to the first and the sixth. A
+# recently used one: forty states of a moving lamp beside a fixed one (more
+# states than either cache holds: 32 each), then back to the first and the sixth. A
 # state that comes back, from the cache or retraced into a reused buffer, and
 # the same frame alone give the same pixels.
 {
   printf 'resolution 48 48\ncamera position 0.278 0.273 -0.8 target 0.278 0.273 0 up 0 1 0 fov 39.3076\n'
   printf 'light fixed point position 0.1 0.45 0.2 intensity 1\n'
-  for i in 0 1 2 3 4 5 6 7 8 9 10 11; do
-    printf 'light lamp point position 0.%02d 0.40 0.2795 intensity 2\nframe p%d\n' $((10 + 6 * i)) "$i"
+  for i in $(seq 0 39); do
+    printf 'light lamp point position 0.%02d 0.40 0.2795 intensity 2\nframe p%d\n' $((10 + i)) "$i"
   done
   printf 'light lamp point position 0.10 0.40 0.2795 intensity 2\nframe back0\n'
-  printf 'light lamp point position 0.40 0.40 0.2795 intensity 2\nframe back5\n'
+  printf 'light lamp point position 0.15 0.40 0.2795 intensity 2\nframe back5\n'
 } >"$TMP/many.script"
-expect_success "fourteen light states in one run" "$GR" "${IN[@]}" "$TMP/many.script" -o "$TMP/many" -q
+expect_success "forty-two light states in one run" "$GR" "${IN[@]}" "$TMP/many.script" -o "$TMP/many" -q
 expect_success "... and the sixth alone" "$GR" "${IN[@]}" "$TMP/many.script" -o "$TMP/many5" --frames p5 -q
 for pair in "back0 p0" "back5 p5"; do
   set -- $pair
@@ -157,6 +157,19 @@ for pair in "back0 p0" "back5 p5"; do
 done
 "$GC" diff "$TMP/many5/p5.exr" "$TMP/many/p5.exr" >"$TMP/stdout" 2>/dev/null
 check "p5 alone is the same as after five other states (rms=$(val rms))" [ "$(val rms)" = 0 ]
+# Twelve lamps on at once, then one of them moved: the move recomputes that
+# lamp's direct light only (the cache held 8 lights before, and a move then
+# recomputed the 4 it could not hold as well)
+{
+  printf 'resolution 32 32\ncamera position 0.278 0.273 -0.8 target 0.278 0.273 0 up 0 1 0 fov 39.3076\n'
+  for i in $(seq 0 11); do
+    printf 'light l%d point position 0.%02d 0.40 0.2795 intensity 0.5\n' "$i" $((10 + 3 * i))
+  done
+  printf 'frame twelve\nlight l5 point position 0.30 0.30 0.2 intensity 0.5\nframe moved\n'
+} >"$TMP/twelve.script"
+expect_success "twelve lamps, then one moved" "$GR" "${IN[@]}" "$TMP/twelve.script" -o "$TMP/twelve" -v
+n=$(sed -n "/frame 0 'twelve'/,\$p" "$TMP/stderr" | grep -c 'light [0-9]*: rows')
+check "... the move recomputes the direct light of one lamp ($n)" [ "$n" = 1 ]
 expect_success "--frames lamp" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/fn" --frames lamp -q
 check "--frames lamp writes lamp.exr only" [ "$(ls "$TMP/fn")" = lamp.exr ]
 expect_success "--frames 3 (an index)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/f3" --frames 3 -q
