@@ -194,6 +194,20 @@ int gi_light_analytic(const gi_light *l, gi_vec3 x, gi_vec3 n, gi_vec3 *E)
     return 1;
 }
 
+void gi_light_unit(const gi_light *l, gi_light *unit, float scale[3])
+{
+    *unit = *l;
+    if (l->type == GI_LIGHT_MESH) {
+        scale[0] = scale[1] = scale[2] = 1.0f;
+        return;
+    }
+    for (int c = 0; c < 3; c++) {
+        scale[c] = l->color[c] * l->intensity;
+        unit->color[c] = 1.0f;
+    }
+    unit->intensity = 1.0f;
+}
+
 int gi_light_has_area(const gi_light *l)
 {
     return l->type == GI_LIGHT_AREA || l->type == GI_LIGHT_MESH;

@@ -45,6 +45,12 @@ static inline int gi_light_sample_stratum(const gi_light *l, gi_vec3 x, int j, i
 /* 1 for lights with extent (area, emissive mesh): sampled at several points,
  * soft shadows; 0 for point, spot and directional lights. */
 int gi_light_has_area(const gi_light *l);
+/* Light l with strength 1 and white colour in *unit, and what it was in
+ * scale (colour times strength, per channel): every quantity gi computes
+ * from one light is linear in these, so a light that is only dimmed or
+ * tinted can be rendered once as *unit and scaled. Mesh lights (their
+ * emitters carry the radiance) come back as they are, scale 1. */
+void gi_light_unit(const gi_light *l, gi_light *unit, float scale[3]);
 /* Rectangular area light l (GI_LIGHT_AREA): its projected solid angle seen
  * from x above the plane of normal n, unoccluded, from Lambert's formula for
  * a polygon clipped to that plane (0 behind the light or below the plane).

@@ -409,12 +409,17 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             ne += lights[l].enabled ? 1 : 0;
         cacheable = ne <= GI_RELIGHT_SLOTS;
     }
+    /* each light traced at strength 1 and white (gi_light_unit) and scaled
+     * in 1b: a light only dimmed or tinted is not traced again */
+    float lsc[GI_RELIGHT_SLOTS][3];
     for (size_t l = 0; l < n && cacheable; l++) {
         if (!lights[l].enabled)
             continue;
+        gi_light unit;
+        gi_light_unit(&lights[l], &unit, lsc[nused]);
         int found = -1;
         for (int k = 0; k < GI_RELIGHT_SLOTS && found < 0; k++)
-            if (r->slots[k].used && !memcmp(&r->slots[k].light, &lights[l], sizeof lights[l]))
+            if (r->slots[k].used && !memcmp(&r->slots[k].light, &unit, sizeof unit))
                 found = k;
         if (found >= 0 && need_dir && !r->slots[found].has_dir) {
             /* cached while every material was diffuse: trace it again for the directions */
@@ -449,7 +454,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                 sl->dir = gi_alloc_large((3 * (size_t)g->num_entries + 3) * sizeof *sl->dir);
             if (!sl->e || (need_dir && !sl->dir))
                 return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory caching light '%s'", lights[l].name);
-            sl->light = lights[l];
+            sl->light = unit;
             sl->used = 2; /* 2: to be traced */
         }
         r->slots[found].last_use = r->frame;
@@ -555,7 +560,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             /* diffuse: the same value as the general case below, one product per light */
             gi_vec3 esum = gi_v3(0, 0, 0);
             for (int u = 0; u < nused; u++)
-                esum = gi_add(esum, gi_v3p(r->slots[slot_of[u]].e + 3 * (size_t)e));
+                esum = gi_add(esum, gi_mul(gi_v3p(r->slots[slot_of[u]].e + 3 * (size_t)e), gi_v3p(lsc[u])));
             gi_v3store(r->flux + 3 * v0, gi_mul(gi_v3p(fd), esum));
             continue;
         }
@@ -570,7 +575,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         if (denom > 0.0f && coso > 0.0f) {
             for (int u = 0; u < nused; u++) {
                 const light_slot *sl = &r->slots[slot_of[u]];
-                gi_vec3 ev = gi_v3p(sl->e + 3 * (size_t)e);
+                gi_vec3 ev = gi_mul(gi_v3p(sl->e + 3 * (size_t)e), gi_v3p(lsc[u]));
                 if (gi_maxc(ev) <= 0.0f)
                     continue;
                 gi_vec3 f = gi_bsdf_eval(&b, nn, gi_v3p(sl->dir + 3 * (size_t)e), wo);

@@ -170,6 +170,22 @@ check "p5 alone is the same as after five other states (rms=$(val rms))" [ "$(va
 expect_success "twelve lamps, then one moved" "$GR" "${IN[@]}" "$TMP/twelve.script" -o "$TMP/twelve" -v
 n=$(sed -n "/frame 0 'twelve'/,\$p" "$TMP/stderr" | grep -c 'light [0-9]*: rows')
 check "... the move recomputes the direct light of one lamp ($n)" [ "$n" = 1 ]
+# Every light is traced at strength 1 and white and scaled: dimming or tinting
+# a lamp retraces nothing, and the frame is the lamp's light scaled exactly
+# (the lamp alone: twice the intensity is twice every pixel, direct and indirect).
+{
+  printf 'resolution 32 32\ncamera position 0.278 0.273 -0.8 target 0.278 0.273 0 up 0 1 0 fov 39.3076\n'
+  printf 'light ceiling off\nlight l point position 0.2 0.40 0.2795 intensity 0.5\nframe half\n'
+  printf 'light l point position 0.2 0.40 0.2795 intensity 1 color 1 0.5 0.25\nframe tinted\n'
+  printf 'light l point position 0.2 0.40 0.2795 intensity 1\nframe one\n'
+} >"$TMP/dim.script"
+expect_success "a lamp dimmed and tinted" "$GR" "${IN[@]}" "$TMP/dim.script" -o "$TMP/dim" -v
+n=$(sed -n "/frame 0 'half'/,\$p" "$TMP/stderr" | grep -c 'light [0-9]*: rows')
+check "... the dimmed and tinted frames retrace no direct light ($n)" [ "$n" = 0 ]
+"$GC" diff "$TMP/dim/half.exr" "$TMP/dim/one.exr" >"$TMP/stdout" 2>/dev/null
+r=$(awk -v a="$(val mean_a)" -v b="$(val mean_ref)" 'BEGIN { if (a > 0) printf "%.7f", b / a }')
+check "... twice the intensity is twice the light (mean ratio $r)" \
+  awk -v r="$r" 'BEGIN { exit !(r != "" && r > 1.99999 && r < 2.00001) }'
 expect_success "--frames lamp" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/fn" --frames lamp -q
 check "--frames lamp writes lamp.exr only" [ "$(ls "$TMP/fn")" = lamp.exr ]
 expect_success "--frames 3 (an index)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/f3" --frames 3 -q
