@@ -41,6 +41,16 @@ typedef struct light_slot {
     int has_dir;
 } light_slot;
 
+/* One photon of the key grid, stored in its bucket's run: a lookup reads
+ * consecutive slots instead of an index and then three arrays at random
+ * (position, normal, cell), which cost a cache miss each. */
+struct kslot {
+    float pos[3], nrm[3];
+    uint64_t id;  /* its cell, packed (kpack): a bucket holds several cells */
+    uint32_t key; /* the key a ray that finds it reads (its own or an ancestor with >= 8 photons) */
+    uint32_t pad;
+};
+
 struct gi_relight {
     light_slot slots[GI_RELIGHT_SLOTS];
     uint64_t frame;
@@ -89,10 +99,7 @@ struct gi_relight {
     float kcell;
     uint32_t kmask;       /* buckets - 1 */
     uint32_t *kb_start;   /* kmask + 2 */
-    uint32_t *kb_photon;  /* photon indices, by bucket */
-    float *kpos, *knrm;   /* 3 per photon */
-    uint64_t *kid;        /* per photon: its cell, packed */
-    uint32_t *klift;      /* per key: the key a ray reads (itself or an ancestor with >= 8 photons) */
+    struct kslot *kslot;  /* the photons, by bucket: what a lookup reads, side by side */
     gi_relight_times times;
 };
 
@@ -277,11 +284,7 @@ void gi_relight_free(gi_relight *r)
     free(r->gp_gen);
     free(r->gather_list);
     free(r->kb_start);
-    free(r->kb_photon);
-    free(r->kpos);
-    free(r->knrm);
-    free(r->kid);
-    free(r->klift);
+    free(r->kslot);
     free(r);
 }
 
@@ -703,42 +706,19 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
     while (nb < P && nb < (1u << 30))
         nb <<= 1;
     r->kmask = nb - 1;
-    r->kpos = gi_alloc_large(3 * P * sizeof *r->kpos);
-    r->knrm = gi_alloc_large(3 * P * sizeof *r->knrm);
-    r->kid = gi_alloc_large(P * sizeof *r->kid);
     r->kb_start = calloc((size_t)nb + 2, sizeof *r->kb_start);
-    r->kb_photon = gi_alloc_large(P * sizeof *r->kb_photon);
-    r->klift = malloc(((size_t)K + 1) * sizeof *r->klift);
+    r->kslot = gi_alloc_large(P * sizeof *r->kslot);
+    uint32_t *klift = malloc(((size_t)K + 1) * sizeof *klift);
     uint64_t *cnt = calloc((size_t)K + 1, sizeof *cnt);
     uint32_t *bk = gi_alloc_large(P * sizeof *bk);
-    if (!r->kpos || !r->knrm || !r->kid || !r->kb_start || !r->kb_photon || !r->klift || !cnt || !bk) {
-        free(cnt);
-        free(bk);
-        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the photon grid");
-    }
-#pragma omp parallel for schedule(static) num_threads(r->threads)
-    for (uint64_t p = 0; p < P; p++) {
-        gi_gip_vertex(g, r->s, p, r->kpos + 3 * p, r->knrm + 3 * p);
-        const float *x = r->kpos + 3 * p;
-        int64_t cx = kcoord(r, x[0]), cy = kcoord(r, x[1]), cz = kcoord(r, x[2]);
-        bk[p] = kbucket(r, cx, cy, cz);
-        r->kid[p] = kpack(cx, cy, cz);
-    }
-    for (uint64_t p = 0; p < P; p++)
-        r->kb_start[bk[p] + 1]++;
-    for (uint32_t b = 0; b < nb; b++)
-        r->kb_start[b + 1] += r->kb_start[b];
     uint32_t *fill = malloc(((size_t)nb + 1) * sizeof *fill);
-    if (!fill) {
+    if (!r->kb_start || !r->kslot || !klift || !cnt || !bk || !fill) {
+        free(klift);
         free(cnt);
         free(bk);
+        free(fill);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the photon grid");
     }
-    memcpy(fill, r->kb_start, ((size_t)nb + 1) * sizeof *fill);
-    for (uint64_t p = 0; p < P; p++)
-        r->kb_photon[fill[bk[p]]++] = (uint32_t)p;
-    free(fill);
-    free(bk);
     /* photons under each key (parents after children, as in set_lights),
      * then the key each one lifts to */
     for (uint64_t p = 0; p < P; p++)
@@ -751,52 +731,73 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
         uint32_t q = k;
         while (cnt[q] < 8 && h->key_parent[q] != GI_HVDS_NO_KEY && h->key_scale[h->key_parent[q]] > 0.0f)
             q = h->key_parent[q];
-        r->klift[k] = q;
+        klift[k] = q;
     }
     free(cnt);
+#pragma omp parallel for schedule(static) num_threads(r->threads)
+    for (uint64_t p = 0; p < P; p++) {
+        float x[3], n[3];
+        gi_gip_vertex(g, r->s, p, x, n);
+        bk[p] = kbucket(r, kcoord(r, x[0]), kcoord(r, x[1]), kcoord(r, x[2]));
+    }
+    for (uint64_t p = 0; p < P; p++)
+        r->kb_start[bk[p] + 1]++;
+    for (uint32_t b = 0; b < nb; b++)
+        r->kb_start[b + 1] += r->kb_start[b];
+    /* each bucket's photons in the order of their indices, as before the
+     * slots (ties between equally near photons break the same way) */
+    memcpy(fill, r->kb_start, ((size_t)nb + 1) * sizeof *fill);
+    for (uint64_t p = 0; p < P; p++) {
+        struct kslot *ks = &r->kslot[fill[bk[p]]++];
+        gi_gip_vertex(g, r->s, p, ks->pos, ks->nrm);
+        ks->id = kpack(kcoord(r, ks->pos[0]), kcoord(r, ks->pos[1]), kcoord(r, ks->pos[2]));
+        uint32_t k = h->photon_key[p];
+        ks->key = k == GI_HVDS_NO_KEY ? k : klift[k];
+        ks->pad = 0;
+    }
+    free(fill);
+    free(bk);
+    free(klift);
     return 0;
 }
 
 /* The nearest photon of cell (x, y, z) to p within *best (squared), normal
- * within 45 degrees of n; *bp its index. */
+ * within 45 degrees of n; *bp its slot. */
 static inline void kscan(const gi_relight *r, int64_t x, int64_t y, int64_t z, const float p[3], const float n[3],
                          float *best, uint32_t *bp)
 {
     uint32_t b = kbucket(r, x, y, z);
     uint64_t id = kpack(x, y, z);
     for (uint32_t j = r->kb_start[b]; j < r->kb_start[b + 1]; j++) {
-        uint32_t q = r->kb_photon[j];
-        if (r->kid[q] != id)
+        const struct kslot *ks = &r->kslot[j];
+        if (ks->id != id)
             continue; /* another cell in the bucket */
-        const float *a = r->kpos + 3 * (size_t)q, *an = r->knrm + 3 * (size_t)q;
+        const float *a = ks->pos, *an = ks->nrm;
         if (an[0] * n[0] + an[1] * n[1] + an[2] * n[2] < 0.7071f)
             continue;
         float d0 = a[0] - p[0], d1 = a[1] - p[1], d2 = a[2] - p[2];
         float d = d0 * d0 + d1 * d1 + d2 * d2;
         if (d < *best) {
             *best = d;
-            *bp = q;
+            *bp = j;
         }
     }
 }
 
-uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3])
+/* The cells around cell c that can hold a photon nearer to p than best
+ * (squared): the distance from p to each one's box against it. Returns how
+ * many, in the order dz, dy, dx (the order decides ties). */
+static int knear_cells(const gi_relight *r, const int64_t c[3], const float p[3], float best, int64_t (*out)[3],
+                       float *gout)
 {
-    if (!r->kb_start)
-        return GI_HVDS_NO_KEY;
-    const float c = r->kcell;
-    int64_t cx = kcoord(r, p[0]), cy = kcoord(r, p[1]), cz = kcoord(r, p[2]);
-    float best = c * c;
-    uint32_t bp = UINT32_MAX;
-    kscan(r, cx, cy, cz, p, n, &best, &bp);
-    /* the neighbours only where they can hold something nearer: the
-     * distance from p to each one's box against the best so far */
+    const float cs = r->kcell;
     float lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
-        float base = (float)(a == 0 ? cx : a == 1 ? cy : cz) * c;
-        lo[a] = p[a] - base;           /* to the cell's lower face */
-        hi[a] = base + c - p[a];       /* to its upper face */
+        float base = (float)c[a] * cs;
+        lo[a] = p[a] - base;     /* to the cell's lower face */
+        hi[a] = base + cs - p[a]; /* to its upper face */
     }
+    int m = 0;
     for (int dz = -1; dz <= 1; dz++)
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
@@ -810,14 +811,81 @@ uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[
                 }
                 if (g >= best)
                     continue;
-                kscan(r, cx + dx, cy + dy, cz + dz, p, n, &best, &bp);
+                out[m][0] = c[0] + dx;
+                out[m][1] = c[1] + dy;
+                out[m][2] = c[2] + dz;
+                gout[m++] = g;
             }
-    if (bp == UINT32_MAX)
-        return GI_HVDS_NO_KEY;
-    uint32_t k = r->h->photon_key[bp];
-    return k == GI_HVDS_NO_KEY ? k : r->klift[k];
+    return m;
 }
 
+/* Lookups in batches whose memory is asked for ahead: a lookup's time was
+ * mostly waiting for its bucket's start and then its slots, one cache miss
+ * after another (44% of a glossy material change's profile on Sponza). The
+ * buckets of a batch's home cells are fetched together, then their slots,
+ * then the same for the neighbours that remain candidates; each query scans
+ * its cells in the order of the one-at-a-time search, with the same bound,
+ * so the answers are the same. */
+enum { KBATCH = 16 };
+
+static void keys_at_batch(const gi_relight *r, int n, const float *p, const float *nrm, uint32_t *out)
+{
+    int64_t c[KBATCH][3];
+    uint32_t b[KBATCH], bp[KBATCH];
+    float best[KBATCH];
+    for (int i = 0; i < n; i++) {
+        for (int a = 0; a < 3; a++)
+            c[i][a] = kcoord(r, p[3 * i + a]);
+        b[i] = kbucket(r, c[i][0], c[i][1], c[i][2]);
+        __builtin_prefetch(&r->kb_start[b[i]]);
+    }
+    for (int i = 0; i < n; i++)
+        __builtin_prefetch(&r->kslot[r->kb_start[b[i]]]);
+    for (int i = 0; i < n; i++) {
+        best[i] = r->kcell * r->kcell;
+        bp[i] = UINT32_MAX;
+        kscan(r, c[i][0], c[i][1], c[i][2], p + 3 * i, nrm + 3 * i, &best[i], &bp[i]);
+    }
+    int64_t nb[KBATCH][26][3];
+    float ng[KBATCH][26];
+    int nn[KBATCH];
+    for (int i = 0; i < n; i++) {
+        nn[i] = knear_cells(r, c[i], p + 3 * i, best[i], nb[i], ng[i]);
+        for (int j = 0; j < nn[i]; j++)
+            __builtin_prefetch(&r->kb_start[kbucket(r, nb[i][j][0], nb[i][j][1], nb[i][j][2])]);
+    }
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < nn[i]; j++)
+            __builtin_prefetch(&r->kslot[r->kb_start[kbucket(r, nb[i][j][0], nb[i][j][1], nb[i][j][2])]]);
+    for (int i = 0; i < n; i++) {
+        /* the bound tightens as cells are scanned, as in the plain search:
+         * a cell it now excludes holds nothing nearer */
+        for (int j = 0; j < nn[i]; j++)
+            if (ng[i][j] < best[i])
+                kscan(r, nb[i][j][0], nb[i][j][1], nb[i][j][2], p + 3 * i, nrm + 3 * i, &best[i], &bp[i]);
+        out[i] = bp[i] == UINT32_MAX ? GI_HVDS_NO_KEY : r->kslot[bp[i]].key;
+    }
+}
+
+void gi_relight_keys_at(const gi_relight *r, size_t n, const float *p, const float *nrm, uint32_t *out)
+{
+    if (!r->kb_start) {
+        for (size_t i = 0; i < n; i++)
+            out[i] = GI_HVDS_NO_KEY;
+        return;
+    }
+    for (size_t i = 0; i < n; i += KBATCH)
+        keys_at_batch(r, n - i < KBATCH ? (int)(n - i) : KBATCH, p + 3 * i, nrm + 3 * i, out + i);
+}
+
+float gi_relight_key_cell(const gi_relight *r) { return r->kb_start ? r->kcell : 0.0f; }
+
+uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3])
+{
+    uint32_t k;
+    gi_relight_keys_at(r, 1, p, n, &k);
+    return k;
+}
 
 /* Step 4 for the gathering points idx[0..n) (idx NULL: all) not yet gathered
  * since the last gi_relight_set_lights: E = sum over rays of L(key) * pi / N,

@@ -78,6 +78,12 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st);
  * gathering rays. GI_HVDS_NO_KEY when none. Thread-safe after
  * gi_relight_prepare_keys. */
 uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[3]);
+/* gi_relight_key_at for n points at once (p, nrm: 3 floats each), faster:
+ * the lookups' memory is fetched for several at a time. */
+void gi_relight_keys_at(const gi_relight *r, size_t n, const float *p, const float *nrm, uint32_t *out);
+/* The side of the key grid's cells (m): the search's reach. 0 before
+ * gi_relight_prepare_keys. */
+float gi_relight_key_cell(const gi_relight *r);
 const gi_relight_times *gi_relight_times_last(const gi_relight *r);
 
 #ifdef __cplusplus

@@ -284,6 +284,87 @@ static void test_gather_on_demand(void **state)
     pipe_free(&p);
 }
 
+/* gi_relight_keys_at: the key a glossy ray reads is that of the nearest photon
+ * within the grid's reach whose normal is within 45 degrees (or an ancestor
+ * of its key), found by brute force; batches give what single lookups give. */
+static void test_keys_at_nearest(void **state)
+{
+    (void)state;
+    pipe p = {0};
+    pipe_scene(&p, two_rooms(), "two_rooms_keys");
+    gi_hvds_opts ho;
+    gi_hvds_opts_default(&ho);
+    ho.gather_rays = 16;
+    pipe_build(&p, 20000, &ho, 2);
+    gi_light a = point(0.5f, 0.7f, 0.5f, 10.0f);
+    pipe_light(&p, &a, 1);
+    gi_status st = {0};
+    assert_int_equal(gi_relight_prepare_keys(p.rl, &st), 0);
+    const float c = gi_relight_key_cell(p.rl);
+    assert_true(c > 0.0f);
+    const uint64_t P = p.gip->num_photons;
+    float *pp = malloc(3 * P * sizeof *pp), *pn = malloc(3 * P * sizeof *pn);
+    assert_non_null(pp);
+    assert_non_null(pn);
+    for (uint64_t i = 0; i < P; i++)
+        gi_gip_vertex(p.gip, p.s, i, pp + 3 * i, pn + 3 * i);
+    enum { NQ = 500 };
+    float q[3 * NQ], qn[3 * NQ];
+    uint32_t got[NQ];
+    uint64_t rs = 0x9e3779b97f4a7c15ull;
+    for (int i = 0; i < NQ; i++) {
+        /* near a photon (within a cell, so that some searches cross cells),
+         * with its normal tilted; every 7th far from the geometry */
+        rs = rs * 6364136223846793005ull + 1442695040888963407ull;
+        uint64_t k = (rs >> 33) % P;
+        for (int a2 = 0; a2 < 3; a2++) {
+            rs = rs * 6364136223846793005ull + 1442695040888963407ull;
+            float u = (float)((rs >> 40) & 0xFFFF) / 65535.0f - 0.5f;
+            q[3 * i + a2] = pp[3 * k + a2] + u * c * (i % 7 ? 1.0f : 40.0f);
+            qn[3 * i + a2] = pn[3 * k + a2] + 0.3f * u;
+        }
+        float l = sqrtf(qn[3 * i] * qn[3 * i] + qn[3 * i + 1] * qn[3 * i + 1] + qn[3 * i + 2] * qn[3 * i + 2]);
+        for (int a2 = 0; a2 < 3; a2++)
+            qn[3 * i + a2] /= l;
+    }
+    gi_relight_keys_at(p.rl, NQ, q, qn, got);
+    int found = 0, none = 0;
+    for (int i = 0; i < NQ; i++) {
+        assert_int_equal(gi_relight_key_at(p.rl, q + 3 * i, qn + 3 * i), got[i]);
+        uint64_t best = UINT64_MAX;
+        float bd = c * c;
+        for (uint64_t j = 0; j < P; j++) {
+            const float *x = pp + 3 * j, *n = pn + 3 * j;
+            if (n[0] * qn[3 * i] + n[1] * qn[3 * i + 1] + n[2] * qn[3 * i + 2] < 0.7071f)
+                continue;
+            float d = (x[0] - q[3 * i]) * (x[0] - q[3 * i]) + (x[1] - q[3 * i + 1]) * (x[1] - q[3 * i + 1]) +
+                      (x[2] - q[3 * i + 2]) * (x[2] - q[3 * i + 2]);
+            if (d < bd) {
+                bd = d;
+                best = j;
+            }
+        }
+        if (best == UINT64_MAX || p.h->photon_key[best] == GI_HVDS_NO_KEY) {
+            assert_int_equal(got[i], GI_HVDS_NO_KEY);
+            none++;
+            continue;
+        }
+        uint32_t k = p.h->photon_key[best];
+        while (k != got[i] && p.h->key_parent[k] != GI_HVDS_NO_KEY)
+            k = p.h->key_parent[k];
+        if (k != got[i])
+            fail_msg("query %d: key %u is not the nearest photon's (%llu, key %u) nor an ancestor of it", i, got[i],
+                     (unsigned long long)best, p.h->photon_key[best]);
+        found++;
+    }
+    print_message("keys_at: %d of %d queries found their nearest photon's key, %d none\n", found, NQ, none);
+    assert_true(found > NQ / 2);
+    assert_true(none > 0);
+    free(pp);
+    free(pn);
+    pipe_free(&p);
+}
+
 static void test_coarse_level_occlusion(void **state)
 {
     (void)state;
@@ -440,6 +521,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thin_wall_no_leak),
         cmocka_unit_test(test_gather_on_demand),
+        cmocka_unit_test(test_keys_at_nearest),
         cmocka_unit_test(test_coarse_level_occlusion),
         cmocka_unit_test(test_cornell_like_accuracy_and_bytes),
     };
