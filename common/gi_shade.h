@@ -53,9 +53,14 @@ typedef struct gi_shade_opts {
      * visible glossy sample traces glossy_rays rays from its lobe once per
      * view and reads the radiance of the keys they hit every frame,
      * key_flux[k] * key_scale[k]. key_at (NULL: the gathering points' linear
-     * fit instead) maps a hit to its key; key_ctx is its first argument. */
+     * fit instead) maps n hits (p, nrm: 3 floats each) to their keys; key_ctx
+     * is its first argument. */
     int glossy_rays;    /* default 36; 0: off */
-    uint32_t (*key_at)(const void *ctx, const float p[3], const float n[3]);
+    /* only lobes whose ks (max over RGB, at the material's base colour
+     * factor) is at least this gather; the rest take the linear fit
+     * (default GI_SHADE_GATHER_KS) */
+    float glossy_min_ks;
+    void (*key_at)(const void *ctx, size_t n, const float *p, const float *nrm, uint32_t *out);
     const void *key_ctx;
     const float *key_flux;
     /* NULL, or called before the indirect light with the gathering points
@@ -76,6 +81,14 @@ typedef struct gi_shade_times {
 } gi_shade_times;
 
 void gi_shade_opts_default(gi_shade_opts *o);
+/* 1 if material m's glossy lobe gathers at the pixels under options o: a
+ * dielectric's lobe (ks = 0.04) reflects too little for the rays to pay.
+ * Sponza, the floor glossy under a sun and a lamp, 320 x 240: the linear fit
+ * instead of 144-ray gathers differs by nrmse 0.002 for a dielectric of
+ * roughness 0.1, 0.2 or 0.5, by 0.006 at metallic 0.25 (ks ~ 0.2), 0.016 at
+ * 0.5 and 0.10 at 1; 36 rays cost ~1 s per roughness change at 640 x 480. */
+#define GI_SHADE_GATHER_KS 0.1f
+int gi_shade_gathers(const gi_material *m, const gi_shade_opts *o);
 int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade **out, gi_status *st);
 void gi_shade_free(gi_shade *sh);
 /* Render one frame into rgb (3 floats per pixel). gp_irradiance: 3 floats per

@@ -58,6 +58,9 @@ static void help(void)
            "  --glossy-rays N         a glossy surface's pixel reflects indirect light from N rays of\n"
            "                          its lobe, traced once per view, averaged over 5 x 5 pixels of\n"
            "                          its surface (default 36; 0: the gathering points' linear fit)\n"
+           "  --glossy-min-ks X       only lobes with ks >= X gather so (metals: ks ~ base colour);\n"
+           "                          the others, dielectrics (ks 0.04) among them, take the linear\n"
+           "                          fit (default 0.1; 0: every glossy lobe gathers)\n"
            "  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
            "                          weighted mean, half a weighted linear fit (default), or the mean\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
@@ -74,14 +77,14 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_INTERP };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_INTERP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
 
-static uint32_t key_at(const void *ctx, const float p[3], const float n[3])
+static void key_at(const void *ctx, size_t n, const float *p, const float *nrm, uint32_t *out)
 {
-    return gi_relight_key_at((const gi_relight *)ctx, p, n);
+    gi_relight_keys_at((const gi_relight *)ctx, n, p, nrm, out);
 }
 
 static int lights_equal(const gi_light *a, size_t na, const gi_light *b, size_t nb)
@@ -154,7 +157,7 @@ int main(int argc, char **argv)
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF}, {"no-edge-refine", no_argument, 0, OPT_NOEREF}, {"refine-contrast", required_argument, 0, OPT_RCON},
-        {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"interp", required_argument, 0, OPT_INTERP},
+        {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"glossy-min-ks", required_argument, 0, OPT_GMINKS}, {"interp", required_argument, 0, OPT_INTERP},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
@@ -186,6 +189,7 @@ int main(int argc, char **argv)
         case OPT_RCON: so.refine_contrast = (float)gi_opt_double("--refine-contrast", optarg, 0.01, 1e6); break;
         case OPT_COV: so.coverage = (int)gi_opt_long("--coverage", optarg, 1, 31); break;
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
+        case OPT_GMINKS: so.glossy_min_ks = (float)gi_opt_double("--glossy-min-ks", optarg, 0.0, 1.0); break;
         case OPT_GPTS: gpts = 1; break;
         case OPT_ONLY:
             if (!strcmp(optarg, "direct"))
@@ -437,13 +441,10 @@ int main(int argc, char **argv)
             break;
         }
         /* glossy reflection gathers at the pixels: the photon grid, once */
-        int any_glossy = 0;
-        for (size_t m = 0; m < fr.num_materials; m++) {
-            gi_bsdf b;
-            gi_bsdf_init(&b, &fr.materials[m], gi_v3p(fr.materials[m].base_color));
-            any_glossy |= b.exponent > 0.0f;
-        }
-        if (any_glossy && so.glossy_rays > 0 && !so.key_at) {
+        int any_gather = 0;
+        for (size_t m = 0; m < fr.num_materials; m++)
+            any_gather |= gi_shade_gathers(&fr.materials[m], &so);
+        if (any_gather && !so.key_at) {
             if ((rc = gi_relight_prepare_keys(rl, &st)))
                 break;
             so.key_at = key_at;
