@@ -22,6 +22,8 @@ material metal roughness 0.5
 frame rough05
 material metal roughness 0.3
 frame rough03
+material metal roughness 0.33
+frame rough033
 material metal metallic 0 roughness 0.2
 frame polished
 SCRIPT
@@ -35,7 +37,7 @@ expect_success "relight" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.sc
 check "material changes do not rasterise again" awk -F, '
   NR == 1 { for (i = 1; i <= NF; i++) c[$i] = i; next }
   $c["changed"] == "materials" { n++; if ($c["t_gbuffer_ms"] + 0 > 0.5) bad++ }
-  END { exit !(n == 3 && !bad) }' "$TMP/t.csv"
+  END { exit !(n == 4 && !bad) }' "$TMP/t.csv"
 # a dielectric lobe (ks 0.04) takes the gathering points' linear fit: the
 # same image as --glossy-rays 0; with --glossy-min-ks 0 it gathers
 expect_success "relight, dielectric without gathers" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
@@ -44,11 +46,19 @@ expect_success "relight, dielectric gathering" gi-relight -q "$S" "$TMP/r.gip" "
   -o "$TMP/all" --glossy-min-ks 0 --frames polished
 d0=$(gi-compare diff "$TMP/out/polished.exr" "$TMP/fit/polished.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
 d1=$(gi-compare diff "$TMP/all/polished.exr" "$TMP/fit/polished.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+# roughness 0.3 -> 0.33 (Phong exponent 245 -> 165) reuses the rays drawn
+# for 0.3, weighted by importance: not the image of a fresh draw, but as near
+# to it as two draws are to each other
+expect_success "relight, rough033 drawn afresh" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
+  -o "$TMP/fresh" --frames rough033
+d2=$(gi-compare diff "$TMP/out/rough033.exr" "$TMP/fresh/rough033.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+check "a small roughness change reuses the rays (nrmse $d2 from a fresh draw: > 0, < 0.03)" \
+  awk -v a="$d2" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.03) }'
 check "a dielectric lobe takes the fit by default (nrmse $d0 from --glossy-rays 0)" \
   awk -v a="$d0" 'BEGIN { exit !(a != "" && a + 0 == 0) }'
 check "and gathers with --glossy-min-ks 0 (nrmse $d1, within 0.01 of the fit)" \
   awk -v a="$d1" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.01) }'
-for f in rough05:0.115 rough03:0.195; do
+for f in rough05:0.115 rough03:0.195 rough033:0.195; do
   n=${f%%:*} tol=${f#*:}
   expect_success "reference '$n', 512 spp" gi-compare render -q "$S" "$TMP/v.script" --frame $n --spp 512 -o "$TMP/ref-$n.exr"
   e=$(gi-compare diff "$TMP/out/$n.exr" "$TMP/ref-$n.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
