@@ -86,7 +86,7 @@ float gi_bsdf_pdf(const gi_bsdf *b, gi_vec3 n, gi_vec3 wo, gi_vec3 wi)
 gi_vec3 gi_sample_cosine(gi_vec3 n, float u1, float u2)
 {
     float r = sqrtf(u1), phi = 2.0f * GI_PIf * u2;
-    float z = sqrtf(fmaxf(0.0f, 1.0f - u1));
+    float z = sqrtf(gi_fmaxf(0.0f, 1.0f - u1));
     gi_vec3 t, bt;
     gi_basis(n, &t, &bt);
     return gi_norm(gi_to_world(gi_v3(r * cosf(phi), r * sinf(phi), z), t, bt, n));
@@ -102,7 +102,7 @@ int gi_bsdf_sample(const gi_bsdf *b, gi_vec3 n, gi_vec3 wo, float u1, float u2, 
         /* cos a = u1^(1/(n+1)) around the mirror direction */
         gi_vec3 r = gi_reflect(wo, n);
         float ca = powf(u1, 1.0f / (b->exponent + 1.0f));
-        float sa = sqrtf(fmaxf(0.0f, 1.0f - ca * ca)), phi = 2.0f * GI_PIf * u2;
+        float sa = sqrtf(gi_fmaxf(0.0f, 1.0f - ca * ca)), phi = 2.0f * GI_PIf * u2;
         gi_vec3 t, bt;
         gi_basis(r, &t, &bt);
         d = gi_norm(gi_to_world(gi_v3(sa * cosf(phi), sa * sinf(phi), ca), t, bt, r));

@@ -71,8 +71,8 @@ int gi_emit_build(const gi_scene *s, const gi_material *mats, gi_emit **out, gi_
         gi_v3store(e->le + 3 * k, le);
         e->two_sided[k] = (unsigned char)(m->double_sided != 0);
         float lum = gi_luminance(le);
-        acc += (double)a * (double)fmaxf(lum, 1e-6f);
-        power += GI_PI * (double)a * (double)fmaxf(lum, 0.0f) * (e->two_sided[k] ? 2.0 : 1.0);
+        acc += (double)a * (double)gi_fmaxf(lum, 1e-6f);
+        power += GI_PI * (double)a * (double)gi_fmaxf(lum, 0.0f) * (e->two_sided[k] ? 2.0 : 1.0);
         e->cdf[e->n] = (float)acc;
     }
     if (!e->n) {

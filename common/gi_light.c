@@ -10,7 +10,7 @@
 float gi_spot_falloff(const gi_light *l, float cos_angle)
 {
     float co = cosf(l->outer_cone), ci = cosf(l->inner_cone);
-    float scale = 1.0f / fmaxf(1e-4f, ci - co);
+    float scale = 1.0f / gi_fmaxf(1e-4f, ci - co);
     float a = gi_clampf((cos_angle - co) * scale, 0.0f, 1.0f);
     return a * a;
 }

@@ -35,7 +35,13 @@ static inline gi_vec3 gi_norm(gi_vec3 a)
     return l > 0.0f ? gi_scale(a, 1.0f / l) : gi_v3(0.0f, 0.0f, 1.0f);
 }
 static inline gi_vec3 gi_neg(gi_vec3 a) { return gi_v3(-a.x, -a.y, -a.z); }
-static inline float gi_maxc(gi_vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+/* fmaxf and fminf as inline code: without -ffinite-math-only the compiler
+ * calls libm for them (1.9% of a Sponza light move's profile). The same
+ * results as glibc's, signed zeros and NaN included: the first operand
+ * when they compare equal, the other one when one is NaN. */
+static inline float gi_fmaxf(float a, float b) { return a >= b || b != b ? a : b; }
+static inline float gi_fminf(float a, float b) { return a <= b || b != b ? a : b; }
+static inline float gi_maxc(gi_vec3 a) { return gi_fmaxf(a.x, gi_fmaxf(a.y, a.z)); }
 static inline float gi_luminance(gi_vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 static inline float gi_clampf(float x, float lo, float hi) { return x < lo ? lo : (x > hi ? hi : x); }
 

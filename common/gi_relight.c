@@ -313,9 +313,9 @@ static void entry_factor(const gi_relight *r, uint32_t e, const gi_material *m, 
         return;
     }
     gi_vec3 nn = gi_v3p(r->entry_nrm + 3 * (size_t)e), wo = gi_v3p(g->w_out + 3 * v0);
-    float coso = fmaxf(gi_dot(nn, wo), 0.0f);
+    float coso = gi_fmaxf(gi_dot(nn, wo), 0.0f);
     float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);
-    float k = denom > 0.0f && coso > 0.0f ? g->entry_dA[e] * coso / fmaxf(denom, 1e-30f) * GI_INV_PIf : 0.0f;
+    float k = denom > 0.0f && coso > 0.0f ? g->entry_dA[e] * coso / gi_fmaxf(denom, 1e-30f) * GI_INV_PIf : 0.0f;
     gi_v3store(fd, gi_scale(b.kd, k));
 }
 
@@ -376,7 +376,7 @@ int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsig
             gi_bsdf_init(&b, m, vertex_base(r, m, i));
             gi_vec3 n = gi_v3p(nrm), wi = gi_v3p(g->w_in + 3 * i), wo = gi_v3p(g->w_out + 3 * i);
             gi_vec3 f = gi_bsdf_eval(&b, n, wi, wo);
-            float cosv = fmaxf(gi_dot(n, wo), 0.0f);
+            float cosv = gi_fmaxf(gi_dot(n, wo), 0.0f);
             float q = (float)g->q[i] / 255.0f;
             float denom = g->pdf[i] * q;
             gi_vec3 R = denom > 0.0f ? gi_scale(f, cosv / denom) : gi_v3(0, 0, 0);
@@ -572,7 +572,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         gi_bsdf b;
         gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(r->entry_texel + 3 * (size_t)e)));
         gi_vec3 wo = gi_v3p(g->w_out + 3 * v0);
-        float coso = fmaxf(gi_dot(nn, wo), 0.0f);
+        float coso = gi_fmaxf(gi_dot(nn, wo), 0.0f);
         float denom = g->pdf[v0] * ((float)g->q[v0] / 255.0f);
         gi_vec3 sum = gi_v3(0, 0, 0);
         if (denom > 0.0f && coso > 0.0f) {
@@ -585,7 +585,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                 sum = gi_add(sum, gi_mul(f, ev));
             }
         }
-        gi_v3store(r->flux + 3 * v0, gi_scale(sum, g->entry_dA[e] * coso / fmaxf(denom, 1e-30f)));
+        gi_v3store(r->flux + 3 * v0, gi_scale(sum, g->entry_dA[e] * coso / gi_fmaxf(denom, 1e-30f)));
     }
     r->rays_seconds = t0b - t0;
     double t1 = gi_now();

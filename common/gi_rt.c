@@ -90,10 +90,10 @@ int gi_rt_new(const gi_scene *s, gi_rt **out, gi_status *st)
     }
     float ext = 0.0f;
     for (int k = 0; k < 3; k++) {
-        ext = fmaxf(ext, fabsf(s->bbox_min[k]));
-        ext = fmaxf(ext, fabsf(s->bbox_max[k]));
+        ext = gi_fmaxf(ext, fabsf(s->bbox_min[k]));
+        ext = gi_fmaxf(ext, fabsf(s->bbox_max[k]));
     }
-    rt->eps = fmaxf(ext, 1e-6f) * 1e-5f;
+    rt->eps = gi_fmaxf(ext, 1e-6f) * 1e-5f;
     *out = rt;
     return 0;
 }
@@ -289,5 +289,5 @@ float gi_rt_shadow_tmax(gi_vec3 x, gi_vec3 o, float dist)
 {
     if (!isfinite(dist))
         return INFINITY;
-    return fmaxf(0.0f, dist * (1.0f - 1e-3f) - gi_len(gi_sub(o, x)));
+    return gi_fmaxf(0.0f, dist * (1.0f - 1e-3f) - gi_len(gi_sub(o, x)));
 }

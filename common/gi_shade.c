@@ -275,12 +275,12 @@ int gi_shade_new(const gi_scene *s, const gi_rt *rt, const gi_hvds *h, gi_shade 
     /* cell: a few times the median influence radius, bounded to keep the grid small */
     float ext = 0.0f;
     for (int a = 0; a < 3; a++)
-        ext = fmaxf(ext, s->bbox_max[a] - s->bbox_min[a]);
+        ext = gi_fmaxf(ext, s->bbox_max[a] - s->bbox_min[a]);
     double rsum = 0.0;
     for (uint32_t i = 0; i < n; i++)
         rsum += h->gpoints[i].radius;
     float rmean = n ? (float)(rsum / n) : ext;
-    sh->cell = fmaxf(0.5f * sh->reach * rmean, ext * 1e-3f + 1e-6f);
+    sh->cell = gi_fmaxf(0.5f * sh->reach * rmean, ext * 1e-3f + 1e-6f);
     size_t cells;
     for (;;) {
         cells = 1;
@@ -509,7 +509,7 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
             float dn = n[0] * g->nrm[0] + n[1] * g->nrm[1] + n[2] * g->nrm[2];
             if (dn <= 0.0f)
                 continue;
-            float en = sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na;
+            float en = sqrtf(gi_fmaxf(0.0f, 1.0f - dn)) * inv_na;
             if (en >= sh->reach)
                 continue;
             float d[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]};
@@ -517,7 +517,7 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
             float rr = sh->reach * g->radius;
             if (d2 >= rr * rr)
                 continue;
-            float err = fmaxf(sqrtf(d2) / g->radius, en);
+            float err = gi_fmaxf(sqrtf(d2) / g->radius, en);
             float w = 1.0f - err / sh->reach;
             if (w <= 0.0f)
                 continue;
@@ -563,8 +563,8 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
                         if (dn <= 0.0f)
                             continue;
                         float d[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]};
-                        float e = fmaxf(sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / g->radius,
-                                        sqrtf(fmaxf(0.0f, 1.0f - dn)) * inv_na);
+                        float e = gi_fmaxf(sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / g->radius,
+                                        sqrtf(gi_fmaxf(0.0f, 1.0f - dn)) * inv_na);
                         if (k < GI_SHADE_K) {
                             idx[k] = i;
                             err[k++] = e;
@@ -584,7 +584,7 @@ static int interp_weights(const gi_shade *sh, const float p[3], const float n[3]
             return 0;
         float emin = err[0];
         for (int q = 1; q < k; q++)
-            emin = fminf(emin, err[q]);
+            emin = gi_fminf(emin, err[q]);
         float r2 = 1.5f * emin + 1e-6f;
         int kk = 0;
         for (int q = 0; q < k; q++)
@@ -614,7 +614,7 @@ void gi_shade_irradiance_at(const gi_shade *sh, const float *gpe, const float p[
         for (int c = 0; c < 3; c++)
             e[c] += w[q] * gpe[3 * idx[q] + c];
     for (int c = 0; c < 3; c++)
-        e[c] = fmaxf(e[c], 0.0f); /* as the splat: a fit's weights can be negative */
+        e[c] = gi_fmaxf(e[c], 0.0f); /* as the splat: a fit's weights can be negative */
 }
 
 static int same_camera(const gi_camera *a, const gi_camera *b)
@@ -757,7 +757,7 @@ static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int
         return 3;
     float d[3] = {b->p[0] - a->p[0], b->p[1] - a->p[1], b->p[2] - a->p[2]};
     float off = fabsf(d[0] * a->ng[0] + d[1] * a->ng[1] + d[2] * a->ng[2]);
-    float fp = pix_angle * fminf(a->tsurf, b->tsurf);
+    float fp = pix_angle * gi_fminf(a->tsurf, b->tsurf);
     if (off > GI_SHADE_STEP * fp)
         return 4;
     /* a smaller step between triangles whose textures differ there (a
@@ -772,7 +772,7 @@ static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int
             return 0;
         }
         float ta = gi_luminance(gi_v3p(a->texel)), tb = gi_luminance(gi_v3p(b->texel));
-        if (fabsf(ta - tb) > 0.2f * fmaxf(ta, tb))
+        if (fabsf(ta - tb) > 0.2f * gi_fmaxf(ta, tb))
             return 4;
     }
     return 0;
@@ -1425,10 +1425,10 @@ static void visible_area_lights(const gi_shade *sh, const gi_camera *cam, int w,
             }
             float px = (gi_dot(d, r) / (z * th * aspect) + 1.0f) * 0.5f * (float)w;
             float py = (1.0f - gi_dot(d, up) / (z * th)) * 0.5f * (float)h;
-            bx0 = fminf(bx0, px);
-            bx1 = fmaxf(bx1, px);
-            by0 = fminf(by0, py);
-            by1 = fmaxf(by1, py);
+            bx0 = gi_fminf(bx0, px);
+            bx1 = gi_fmaxf(bx1, px);
+            by0 = gi_fminf(by0, py);
+            by1 = gi_fmaxf(by1, py);
         }
         if (all_front) {
             if (bx1 < 0.0f || by1 < 0.0f || bx0 >= (float)w || by0 >= (float)h)
@@ -1542,7 +1542,7 @@ static inline void specular_aa(gi_bsdf *b, float nvar)
 {
     if (!(nvar > 0.0f) || !(b->exponent > 0.0f) || gi_maxc(b->ks) <= 0.0f)
         return;
-    b->exponent = 1.0f / (1.0f / b->exponent + fminf(2.0f * nvar, GI_SHADE_SAA_MAX));
+    b->exponent = 1.0f / (1.0f / b->exponent + gi_fminf(2.0f * nvar, GI_SHADE_SAA_MAX));
 }
 
 /* Shadow rays of one thread, traced in coherent packets: each ray carries the
@@ -1801,7 +1801,7 @@ static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const
                 tg[c] += sf->w[q] * t[c];
         }
     }
-    gi_vec3 E = gi_scale(gi_v3(fmaxf(e[0], 0.0f), fmaxf(e[1], 0.0f), fmaxf(e[2], 0.0f)), GI_INV_PIf);
+    gi_vec3 E = gi_scale(gi_v3(gi_fmaxf(e[0], 0.0f), gi_fmaxf(e[1], 0.0f), gi_fmaxf(e[2], 0.0f)), GI_INV_PIf);
     gi_vec3 out = gi_mul(b.kd, E);
     if (glossy && gg) {
         out = gi_add(out, gi_mul(b.ks, *gg)); /* the gathered lobe */
@@ -1820,7 +1820,7 @@ static inline gi_vec3 indirect_sample(const gi_shade *sh, const ssurf *sf, const
             gl.y += B * (tg[3] * rt.x + tg[4] * rt.y + tg[5] * rt.z);
             gl.z += B * (tg[6] * rt.x + tg[7] * rt.y + tg[8] * rt.z);
         }
-        gl = gi_v3(fmaxf(gl.x, 0.0f), fmaxf(gl.y, 0.0f), fmaxf(gl.z, 0.0f));
+        gl = gi_v3(gi_fmaxf(gl.x, 0.0f), gi_fmaxf(gl.y, 0.0f), gi_fmaxf(gl.z, 0.0f));
         out = gi_add(out, gi_mul(b.ks, gl));
     }
     return out;
@@ -1848,7 +1848,7 @@ static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, float ex, con
         gc[j] = 0.0f;
         float u1 = ((float)(j % k) + gi_rng_float(&rng)) / (float)k;
         float u2 = ((float)(j / k % k) + gi_rng_float(&rng)) / (float)k;
-        float ca = powf(u1, 1.0f / (ex + 1.0f)), sa = sqrtf(fmaxf(0.0f, 1.0f - ca * ca));
+        float ca = powf(u1, 1.0f / (ex + 1.0f)), sa = sqrtf(gi_fmaxf(0.0f, 1.0f - ca * ca));
         float phi = 2.0f * GI_PIf * u2;
         gca[j] = ca;
         gi_vec3 d = gi_norm(gi_to_world(gi_v3(sa * cosf(phi), sa * sinf(phi), ca), t, bt, r));
@@ -1970,7 +1970,7 @@ static inline gi_vec3 splat_rec(const gi_shade *sh, const srec *r, const ssurf *
         return gi_v3(0, 0, 0);
     gi_bsdf b;
     gi_bsdf_init(&b, m, gi_mul(gi_v3p(m->base_color), gi_v3p(r->texel)));
-    gi_vec3 E = gi_v3(fmaxf(e[0], 0.0f), fmaxf(e[1], 0.0f), fmaxf(e[2], 0.0f));
+    gi_vec3 E = gi_v3(gi_fmaxf(e[0], 0.0f), gi_fmaxf(e[1], 0.0f), gi_fmaxf(e[2], 0.0f));
     return gi_mul(b.kd, gi_scale(E, GI_INV_PIf / (float)wsum));
 }
 
@@ -2336,12 +2336,12 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                     gi_light_sample ls;
                     if (!c0->valid || !gi_light_sample_stratum(lt, gi_v3p(c0->p), 0, 1, &lr, &ls))
                         continue;
-                    float lv = gi_luminance(ls.value), e0v = lv * fmaxf(gi_dot(gi_v3p(c0->ns), ls.wi), 0.0f);
+                    float lv = gi_luminance(ls.value), e0v = lv * gi_fmaxf(gi_dot(gi_v3p(c0->ns), ls.wi), 0.0f);
                     int differs = 0;
                     for (int j = 0; j < NE && !differs; j++) {
                         const ssurf *q = &sh->esf[e * (size_t)NE + (size_t)j];
                         if (q->valid)
-                            differs = fabsf(lv * fmaxf(gi_dot(gi_v3p(q->ns), ls.wi), 0.0f) - e0v) > tau;
+                            differs = fabsf(lv * gi_fmaxf(gi_dot(gi_v3p(q->ns), ls.wi), 0.0f) - e0v) > tau;
                     }
                     if (differs)
                         continue;
@@ -2356,8 +2356,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                         size_t q = (size_t)yy * (size_t)w + (size_t)xx;
                         if (!sh->svalid[q])
                             continue;
-                        lo = fminf(lo, ec[q]);
-                        hi = fmaxf(hi, ec[q]);
+                        lo = gi_fminf(lo, ec[q]);
+                        hi = gi_fmaxf(hi, ec[q]);
                     }
                 skip[e - e0] = hi - lo <= tau;
                 ns += skip[e - e0];
@@ -2387,8 +2387,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
                 for (int j = 0; j < NE; j++) {
                     float v0 = sh->esmat[e * (size_t)NE + (size_t)j] != UINT32_MAX ? ev[(e - e0) * (size_t)NE + (size_t)j]
                                                                                    : 0.0f;
-                    lo = fminf(lo, v0);
-                    hi = fmaxf(hi, v0);
+                    lo = gi_fminf(lo, v0);
+                    hi = gi_fmaxf(hi, v0);
                 }
                 refine[e - e0] = hi - lo > tau_ref;
             }

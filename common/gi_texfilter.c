@@ -496,7 +496,7 @@ void gi_texfilter_box(const gi_texfilter *f, int tex, const float uv[2], const f
     float lb = hypotf(b[0] * (float)t0->width, b[1] * (float)t0->height);
     if (!(la == la) || !(lb == lb)) /* NaN: no footprint */
         la = lb = 0.0f;
-    float lmax = fmaxf(la, lb);
+    float lmax = gi_fmaxf(la, lb);
     float area0 = fabsf(a[0] * b[1] - a[1] * b[0]) * (float)t0->width * (float)t0->height;
     if (area0 >= 1.0f) {
         /* a footprint of a texel or more: the exact box average from row
