@@ -734,27 +734,38 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
         klift[k] = q;
     }
     free(cnt);
+    /* each photon's bucket (in parallel), its place in the bucket runs
+     * (one pass in photon order, so that each bucket holds its photons in
+     * the order of their indices and ties between equally near photons
+     * break the same way), then the slots filled in parallel: the grid of
+     * Sponza's 1.0 M photons 189 -> 138 ms, most of the rest the first
+     * touch of its 40 MB */
+    double tg0 = gi_now();
 #pragma omp parallel for schedule(static) num_threads(r->threads)
     for (uint64_t p = 0; p < P; p++) {
         float x[3], n[3];
         gi_gip_vertex(g, r->s, p, x, n);
         bk[p] = kbucket(r, kcoord(r, x[0]), kcoord(r, x[1]), kcoord(r, x[2]));
     }
+    double tg1 = gi_now();
     for (uint64_t p = 0; p < P; p++)
         r->kb_start[bk[p] + 1]++;
     for (uint32_t b = 0; b < nb; b++)
         r->kb_start[b + 1] += r->kb_start[b];
-    /* each bucket's photons in the order of their indices, as before the
-     * slots (ties between equally near photons break the same way) */
     memcpy(fill, r->kb_start, ((size_t)nb + 1) * sizeof *fill);
+    for (uint64_t p = 0; p < P; p++)
+        bk[p] = fill[bk[p]]++; /* now the photon's slot */
+    double tg2 = gi_now();
+#pragma omp parallel for schedule(static) num_threads(r->threads)
     for (uint64_t p = 0; p < P; p++) {
-        struct kslot *ks = &r->kslot[fill[bk[p]]++];
+        struct kslot *ks = &r->kslot[bk[p]];
         gi_gip_vertex(g, r->s, p, ks->pos, ks->nrm);
         ks->id = kpack(kcoord(r, ks->pos[0]), kcoord(r, ks->pos[1]), kcoord(r, ks->pos[2]));
         uint32_t k = h->photon_key[p];
         ks->key = k == GI_HVDS_NO_KEY ? k : klift[k];
         ks->pad = 0;
     }
+    gi_verbose("photon grid: buckets %.1f ms, places %.1f ms, slots %.1f ms", 1e3 * (tg1 - tg0), 1e3 * (tg2 - tg1), 1e3 * (gi_now() - tg2));
     free(fill);
     free(bk);
     free(klift);

@@ -446,8 +446,10 @@ int main(int argc, char **argv)
         for (size_t m = 0; m < fr.num_materials; m++)
             any_gather |= gi_shade_gathers(&fr.materials[m], &so);
         if (any_gather && !so.key_at) {
+            double tk = gi_now();
             if ((rc = gi_relight_prepare_keys(rl, &st)))
                 break;
+            gi_verbose("photon grid for glossy gathers: %.1f ms", 1e3 * (gi_now() - tk));
             so.key_at = key_at;
             so.key_ctx = rl;
             so.key_flux = gi_relight_key_flux(rl);
