@@ -189,6 +189,7 @@ void gi_shade_opts_default(gi_shade_opts *o)
     o->seed = 1;
     o->glossy_rays = 36;
     o->glossy_min_ks = GI_SHADE_GATHER_KS;
+    o->glossy_stride = 2;
     o->interp_linear = 1;
     o->edge_refine = 1;
     o->refine_contrast = GI_SHADE_EDGE_REFINE;
@@ -2919,6 +2920,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
          * 0.47-0.48 s. */
         const int S1 = S == 1;
         const int R = S1 ? GI_SHADE_GLOSSY_WIN : 0;
+        const size_t gs = o->glossy_stride >= 1 ? (size_t)o->glossy_stride : 2;
         const float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
         uint8_t *gself = NULL;
         if (gather && S1 && !(gself = calloc(ns, 1))) {
@@ -2939,7 +2941,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                     gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
                     if (!(b.exponent > 0.0f))
                         continue;
-                    if (S1 && ((i % (size_t)w) % 2 || (i / (size_t)w) % 2)) {
+                    if (S1 && ((i % (size_t)w) % gs || (i / (size_t)w) % gs)) {
                         sh->gdo[i] = 2;
                         continue;
                     }

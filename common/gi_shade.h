@@ -60,6 +60,10 @@ typedef struct gi_shade_opts {
      * factor) is at least this gather; the rest take the linear fit
      * (default GI_SHADE_GATHER_KS) */
     float glossy_min_ks;
+    /* with one sample per pixel, the pixels whose x and y are multiples of
+     * this gather (default 2; 1: every pixel), the rest averaging the
+     * gathers within 7 x 7 pixels on their surface (values < 1: 2) */
+    int glossy_stride;
     void (*key_at)(const void *ctx, size_t n, const float *p, const float *nrm, uint32_t *out);
     const void *key_ctx;
     const float *key_flux;

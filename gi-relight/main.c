@@ -59,6 +59,9 @@ static void help(void)
            "                          (every other pixel of every other row, traced once per view and\n"
            "                          roughness, averaged over 7 x 7 pixels of its surface; default\n"
            "                          36; 0: the gathering points' linear fit)\n"
+           "  --glossy-stride N       of those, the pixels whose x and y are multiples of N gather\n"
+           "                          (1-4, default 2; 1: every pixel, for final frames; the time\n"
+           "                          of the gathers goes about as 1 / N^2)\n"
            "  --glossy-min-ks X       only lobes with ks >= X gather so (metals: ks ~ base colour);\n"
            "                          the others, dielectrics (ks 0.04) among them, take the linear\n"
            "                          fit (default 0.1; 0: every glossy lobe gathers)\n"
@@ -78,7 +81,7 @@ static void help(void)
            "scene), 4 system failure\n");
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_INTERP };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
@@ -158,7 +161,7 @@ int main(int argc, char **argv)
         {"timings", required_argument, 0, OPT_TIMINGS}, {"area-samples", required_argument, 0, OPT_AREA},
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF}, {"no-edge-refine", no_argument, 0, OPT_NOEREF}, {"refine-contrast", required_argument, 0, OPT_RCON},
-        {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"glossy-min-ks", required_argument, 0, OPT_GMINKS}, {"interp", required_argument, 0, OPT_INTERP},
+        {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"glossy-min-ks", required_argument, 0, OPT_GMINKS}, {"glossy-stride", required_argument, 0, OPT_GSTRIDE}, {"interp", required_argument, 0, OPT_INTERP},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
@@ -191,6 +194,7 @@ int main(int argc, char **argv)
         case OPT_COV: so.coverage = (int)gi_opt_long("--coverage", optarg, 1, 31); break;
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
         case OPT_GMINKS: so.glossy_min_ks = (float)gi_opt_double("--glossy-min-ks", optarg, 0.0, 1.0); break;
+        case OPT_GSTRIDE: so.glossy_stride = (int)gi_opt_long("--glossy-stride", optarg, 1, 4); break;
         case OPT_GPTS: gpts = 1; break;
         case OPT_ONLY:
             if (!strcmp(optarg, "direct"))

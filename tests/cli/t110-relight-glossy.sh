@@ -64,4 +64,17 @@ for f in rough05:0.115 rough03:0.195 rough033:0.195; do
   e=$(gi-compare diff "$TMP/out/$n.exr" "$TMP/ref-$n.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
   check "'$n': within nrmse $tol of the reference (nrmse $e)" awk -v a="$e" -v t="$tol" 'BEGIN { exit !(a != "" && a + 0 < t + 0) }'
 done
+# --glossy-stride 1: every pixel gathers (the default, 2, a quarter of
+# them): another image, as near to the reference
+expect_success "relight rough03, every pixel gathering" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
+  -o "$TMP/s1" --glossy-stride 1 --frames rough03
+d3=$(gi-compare diff "$TMP/s1/rough03.exr" "$TMP/out/rough03.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+e3=$(gi-compare diff "$TMP/s1/rough03.exr" "$TMP/ref-rough03.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+check "--glossy-stride 1 gathers at other pixels (nrmse $d3 from the default: > 0, < 0.08)" \
+  awk -v a="$d3" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.08) }'
+check "--glossy-stride 1: within nrmse 0.195 of the reference (nrmse $e3)" \
+  awk -v a="$e3" 'BEGIN { exit !(a != "" && a + 0 < 0.195) }'
+expect_exit 2 "--glossy-stride 0 is refused" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
+  -o "$TMP/s0" --glossy-stride 0
+expect_stderr "glossy-stride.*range" "the message names the option and its range"
 finish
