@@ -1083,6 +1083,102 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
         ew[j] = one && !subst ? 1.0f / (float)ns : (float)cnt[j] / (float)nr;
 }
 
+/* The ne edge samples of edge pixel e from their camera rays' hits (shit,
+ * sfound; positions sfx, sfy): surface, texel and weights (or a
+ * neighbour's, on the same surface), whether the pixel's coverage matters
+ * (sh->ehard), and with cov > 0 the samples' shares (coverage_shares). */
+static void edge_pixel(gi_shade *sh, const gi_camera *cam, int w, int h, size_t e, int texf, int cov, float estep,
+                       float pix_angle, const float *sfx, const float *sfy, const gi_hit *shit,
+                       const uint8_t *sfound)
+{
+    const gi_scene *s = sh->s;
+    const int ne = sh->ne;
+    size_t pix = sh->epix[e];
+    int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
+    for (int j = 0; j < ne;) {
+        float fx = sfx[j], fy = sfy[j];
+        gi_hit hit = shit[j];
+        sh->esrc[e * (size_t)ne + (size_t)j] = UINT32_MAX;
+        ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j];
+        o->valid = 0;
+        o->npairs = 0;
+        o->tsurf = INFINITY;
+        if (!sfound[j++])
+            continue;
+        fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, estep, -1, 0, o);
+        if (!o->valid)
+            continue;
+        /* the texel (filtered over its pixel) and interpolation weights
+         * of the centre's or a neighbour's sample on the same surface;
+         * computed afresh only on a surface none of them sees */
+        const size_t ci[5] = {pix, pix - 1, pix + 1, pix - (size_t)w, pix + (size_t)w};
+        const ssurf *cand[5] = {&sh->sf[pix], x > 0 ? &sh->sf[pix - 1] : NULL,
+                                x + 1 < w ? &sh->sf[pix + 1] : NULL, y > 0 ? &sh->sf[pix - w] : NULL,
+                                y + 1 < h ? &sh->sf[pix + w] : NULL};
+        int reused = 0, wreused = 0;
+        for (int q = 0; q < 5 && !reused && !wreused; q++)
+            if (cand[q] && cand[q]->valid && !discontinuous(o, cand[q], pix_angle)) {
+                o->npairs = cand[q]->npairs;
+                memcpy(o->gp, cand[q]->gp, sizeof o->gp);
+                memcpy(o->w, cand[q]->w, sizeof o->w);
+                /* a neighbour's texel is its own footprint's
+                 * average, which on a textured face seen at a
+                 * grazing angle lies many texels away: such a
+                 * sample filters its own (glTF BoxTextured's top
+                 * face from 6 degrees above, 160x120 against 256
+                 * spp: nrmse 0.0699 -> 0.0459; Sponza sun-b,
+                 * sun-moved, arcade-moved 0.1232, 0.0984, 0.0884
+                 * -> 0.1212, 0.0980, 0.0870) */
+                if (q > 0 && texf && s->materials[o->material].base_color_tex >= 0) {
+                    wreused = 1;
+                    break;
+                }
+                memcpy(o->texel, cand[q]->texel, sizeof o->texel);
+                /* same material, weights and texel: the splat takes
+                 * that sample's indirect light (wo and ns differ by
+                 * less than a pixel, which only a glossy lobe sees) */
+                if (o->material == cand[q]->material)
+                    sh->esrc[e * (size_t)ne + (size_t)(j - 1)] = (uint32_t)ci[q];
+                reused = 1;
+            }
+        if (!reused && texf && s->materials[o->material].base_color_tex >= 0) {
+            gi_vec3 r0, dx, dy;
+            gi_camera_frame_ray(&sh->cf, fx + estep, fy, &r0, &dx);
+            gi_camera_frame_ray(&sh->cf, fx, fy + estep, &r0, &dy);
+            gi_texfilter_texel(sh->tf, &s->materials[o->material], hit.tri, gi_v3p(cam->position),
+                               gi_v3p(o->p), dx, dy, o->texel);
+        } else if (!reused) {
+            /* the texture's value at the point (camera_sample left it) */
+            gi_surface hs;
+            gi_rt_surface(sh->rt, &hit, &hs);
+            gi_material unit = s->materials[o->material];
+            unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
+            gi_scene_base_color(s, &unit, hs.uv0, hs.uv1, o->texel);
+        }
+        if (!reused && !wreused)
+            o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, sh->lin, o->gp, o->w);
+    }
+    /* hard (1): the pixel's coverage matters whatever the light: its
+     * samples see the background, another material or texel. 2: they
+     * straddle a crease (a lit bevel between shaded faces: the
+     * centres around it, all on the faces, cannot tell that it
+     * differs), which matters for a light that lights the two sides
+     * differently (light_pass) */
+    const ssurf *c0 = &sh->sf[pix];
+    float t0 = gi_luminance(gi_v3p(c0->texel));
+    for (int j = 0; j < ne && sh->ehard[e] != 1; j++) {
+        const ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j];
+        if (o->valid != c0->valid ||
+            (o->valid && (o->material != c0->material ||
+                          fabsf(gi_luminance(gi_v3p(o->texel)) - t0) > 0.2f * t0)))
+            sh->ehard[e] = 1;
+        else if (o->valid && discontinuity(c0, o, pix_angle) == 3)
+            sh->ehard[e] = 2;
+    }
+    if (cov > 0)
+        coverage_shares(sh, cam, w, h, e, cov, texf, sfx, sfy, pix_angle);
+}
+
 static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, int h, int ss, int texf,
                         int aa, int cov, int threads, gi_status *st)
 {
@@ -1167,7 +1263,8 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         if (!sh->eidx)
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for edge samples");
         float pix_angle = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
-        size_t nedge = 0, why[5] = {0, 0, 0, 0, 0};
+        /* each pixel's reason (0: none) in parallel, then the indices in order */
+#pragma omp parallel for schedule(static) num_threads(threads)
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 size_t pix = (size_t)y * (size_t)w + (size_t)x;
@@ -1181,9 +1278,14 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                     r = discontinuity(a, a - w, pix_angle);
                 if (!r && y + 1 < h)
                     r = discontinuity(a, a + w, pix_angle);
-                why[r]++;
-                sh->eidx[pix] = r ? (uint32_t)nedge++ : UINT32_MAX;
+                sh->eidx[pix] = (uint32_t)r;
             }
+        size_t nedge = 0, why[5] = {0, 0, 0, 0, 0};
+        for (size_t pix = 0; pix < np; pix++) {
+            uint32_t r = sh->eidx[pix];
+            why[r]++;
+            sh->eidx[pix] = r ? (uint32_t)nedge++ : UINT32_MAX;
+        }
         gi_verbose("edge pixels: %zu by coverage, %zu by material, %zu by crease, %zu by depth step", why[1],
                    why[2], why[3], why[4]);
         int ne = aa * aa - 1;
@@ -1208,102 +1310,31 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         sh->nedge = nedge;
         sh->ne = ne;
         float estep = 1.0f / (float)aa;
-#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
-        for (size_t e = 0; e < nedge; e++) {
+        /* two pixels at a time: their 2 ne camera rays (16 at --aa 3) fill
+         * whole packets, where one pixel's 8 left half of each empty */
+#pragma omp parallel for schedule(dynamic, 32) num_threads(threads)
+        for (size_t e2 = 0; e2 < (nedge + 1) / 2; e2++) {
             gi_rt_thread_init();
-            size_t pix = sh->epix[e];
-            int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
-            /* the pixel's camera rays, traced together (coherent packets) */
-            float sfx[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX], sfy[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
-            gi_vec3 sro[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX], srd[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
-            gi_hit shit[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
-            uint8_t sfound[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
-            edge_positions(aa, x, y, pix, sfx, sfy);
-            for (int j = 0; j < ne; j++)
-                gi_camera_frame_ray(&sh->cf, sfx[j], sfy[j], &sro[j], &srd[j]);
-            gi_rt_intersect_n(sh->rt, ne, sro, srd, 0.0f, shit, sfound);
-            for (int j = 0; j < ne;) {
-                float fx = sfx[j], fy = sfy[j];
-                gi_hit hit = shit[j];
-                sh->esrc[e * (size_t)ne + (size_t)j] = UINT32_MAX;
-                ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j];
-                o->valid = 0;
-                o->npairs = 0;
-                o->tsurf = INFINITY;
-                if (!sfound[j++])
-                    continue;
-                fill_sample(sh, cam, w, h, hit.tri, hit.u, hit.v, fx, fy, estep, -1, 0, o);
-                if (!o->valid)
-                    continue;
-                /* the texel (filtered over its pixel) and interpolation weights
-                 * of the centre's or a neighbour's sample on the same surface;
-                 * computed afresh only on a surface none of them sees */
-                const size_t ci[5] = {pix, pix - 1, pix + 1, pix - (size_t)w, pix + (size_t)w};
-                const ssurf *cand[5] = {&sh->sf[pix], x > 0 ? &sh->sf[pix - 1] : NULL,
-                                        x + 1 < w ? &sh->sf[pix + 1] : NULL, y > 0 ? &sh->sf[pix - w] : NULL,
-                                        y + 1 < h ? &sh->sf[pix + w] : NULL};
-                int reused = 0, wreused = 0;
-                for (int q = 0; q < 5 && !reused && !wreused; q++)
-                    if (cand[q] && cand[q]->valid && !discontinuous(o, cand[q], pix_angle)) {
-                        o->npairs = cand[q]->npairs;
-                        memcpy(o->gp, cand[q]->gp, sizeof o->gp);
-                        memcpy(o->w, cand[q]->w, sizeof o->w);
-                        /* a neighbour's texel is its own footprint's
-                         * average, which on a textured face seen at a
-                         * grazing angle lies many texels away: such a
-                         * sample filters its own (glTF BoxTextured's top
-                         * face from 6 degrees above, 160x120 against 256
-                         * spp: nrmse 0.0699 -> 0.0459; Sponza sun-b,
-                         * sun-moved, arcade-moved 0.1232, 0.0984, 0.0884
-                         * -> 0.1212, 0.0980, 0.0870) */
-                        if (q > 0 && texf && s->materials[o->material].base_color_tex >= 0) {
-                            wreused = 1;
-                            break;
-                        }
-                        memcpy(o->texel, cand[q]->texel, sizeof o->texel);
-                        /* same material, weights and texel: the splat takes
-                         * that sample's indirect light (wo and ns differ by
-                         * less than a pixel, which only a glossy lobe sees) */
-                        if (o->material == cand[q]->material)
-                            sh->esrc[e * (size_t)ne + (size_t)(j - 1)] = (uint32_t)ci[q];
-                        reused = 1;
-                    }
-                if (!reused && texf && s->materials[o->material].base_color_tex >= 0) {
-                    gi_vec3 r0, dx, dy;
-                    gi_camera_frame_ray(&sh->cf, fx + estep, fy, &r0, &dx);
-                    gi_camera_frame_ray(&sh->cf, fx, fy + estep, &r0, &dy);
-                    gi_texfilter_texel(sh->tf, &s->materials[o->material], hit.tri, gi_v3p(cam->position),
-                                       gi_v3p(o->p), dx, dy, o->texel);
-                } else if (!reused) {
-                    /* the texture's value at the point (camera_sample left it) */
-                    gi_surface hs;
-                    gi_rt_surface(sh->rt, &hit, &hs);
-                    gi_material unit = s->materials[o->material];
-                    unit.base_color[0] = unit.base_color[1] = unit.base_color[2] = 1.0f;
-                    gi_scene_base_color(s, &unit, hs.uv0, hs.uv1, o->texel);
-                }
-                if (!reused && !wreused)
-                    o->npairs = (uint8_t)interp_weights(sh, o->p, o->ns, sh->lin, o->gp, o->w);
+            enum { NA = GI_SHADE_AA_MAX * GI_SHADE_AA_MAX };
+            float sfx[2][NA], sfy[2][NA];
+            gi_vec3 sro[2 * NA], srd[2 * NA];
+            gi_hit shit[2 * NA];
+            uint8_t sfound[2 * NA];
+            size_t e0 = 2 * e2, e1 = e0 + 2 < nedge ? e0 + 2 : nedge;
+            int nr = 0;
+            for (size_t e = e0; e < e1; e++) {
+                size_t pix = sh->epix[e];
+                int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w), q = (int)(e - e0);
+                edge_positions(aa, x, y, pix, sfx[q], sfy[q]);
+                for (int j = 0; j < ne; j++, nr++)
+                    gi_camera_frame_ray(&sh->cf, sfx[q][j], sfy[q][j], &sro[nr], &srd[nr]);
             }
-            /* hard (1): the pixel's coverage matters whatever the light: its
-             * samples see the background, another material or texel. 2: they
-             * straddle a crease (a lit bevel between shaded faces: the
-             * centres around it, all on the faces, cannot tell that it
-             * differs), which matters for a light that lights the two sides
-             * differently (light_pass) */
-            const ssurf *c0 = &sh->sf[pix];
-            float t0 = gi_luminance(gi_v3p(c0->texel));
-            for (int j = 0; j < ne && sh->ehard[e] != 1; j++) {
-                const ssurf *o = &sh->esf[e * (size_t)ne + (size_t)j];
-                if (o->valid != c0->valid ||
-                    (o->valid && (o->material != c0->material ||
-                                  fabsf(gi_luminance(gi_v3p(o->texel)) - t0) > 0.2f * t0)))
-                    sh->ehard[e] = 1;
-                else if (o->valid && discontinuity(c0, o, pix_angle) == 3)
-                    sh->ehard[e] = 2;
+            gi_rt_intersect_n(sh->rt, nr, sro, srd, 0.0f, shit, sfound);
+            for (size_t e = e0; e < e1; e++) {
+                int q = (int)(e - e0);
+                edge_pixel(sh, cam, w, h, e, texf, cov, estep, pix_angle, sfx[q], sfy[q], shit + (size_t)q * (size_t)ne,
+                           sfound + (size_t)q * (size_t)ne);
             }
-            if (cov > 0)
-                coverage_shares(sh, cam, w, h, e, cov, texf, sfx, sfy, pix_angle);
         }
         gi_verbose("edge antialiasing: %zu of %zu pixels (%.1f%%) get %d more samples", nedge, np,
                    100.0 * (double)nedge / (double)np, ne);
@@ -1333,11 +1364,30 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
         if (!sh->vbits && !(sh->vbits = calloc(nb + 1, sizeof *sh->vbits)))
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
         memset(sh->vbits, 0, (nb + 1) * sizeof *sh->vbits);
-        for (size_t i = 0; i < ns + ne; i++) {
-            const ssurf *o = i < ns ? &sh->sf[i] : &sh->esf[i - ns];
-            for (int q = 0; o->valid && q < o->npairs; q++)
-                sh->vbits[o->gp[q] >> 6] |= 1ull << (o->gp[q] & 63);
+        int vfail = 0;
+        /* each thread marks its share of the samples in a set of its own */
+#pragma omp parallel num_threads(threads)
+        {
+            uint64_t *vb = calloc(nb + 1, sizeof *vb);
+            if (!vb) {
+#pragma omp atomic write
+                vfail = 1;
+            }
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < ns + ne; i++) {
+                const ssurf *o = i < ns ? &sh->sf[i] : &sh->esf[i - ns];
+                for (int q = 0; vb && o->valid && q < o->npairs; q++)
+                    vb[o->gp[q] >> 6] |= 1ull << (o->gp[q] & 63);
+            }
+            if (vb) {
+#pragma omp critical(gi_shade_vbits)
+                for (size_t b = 0; b < nb; b++)
+                    sh->vbits[b] |= vb[b];
+            }
+            free(vb);
         }
+        if (vfail)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
         size_t n = 0;
         for (size_t b = 0; b < nb; b++)
             n += (size_t)__builtin_popcountll(sh->vbits[b]);
