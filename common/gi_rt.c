@@ -166,8 +166,23 @@ static void packet16(struct RTCRay16 *r, int *valid, int base, int m, const gi_v
     }
 }
 
+static void intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, const float *tmax,
+                        gi_hit *hit, uint8_t *found);
+
 void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, gi_hit *hit,
                        uint8_t *found)
+{
+    intersect_n(rt, n, o, d, tmin, NULL, hit, found);
+}
+
+void gi_rt_intersect_n_upto(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, const float *tmax, gi_hit *hit,
+                            uint8_t *found)
+{
+    intersect_n(rt, n, o, d, 0.0f, tmax, hit, found);
+}
+
+static void intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, const float *tmax,
+                        gi_hit *hit, uint8_t *found)
 {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -179,7 +194,7 @@ void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *
         int m = n - base < 16 ? n - base : 16;
         RTC_ALIGN(64) int valid[16];
         RTC_ALIGN(64) struct RTCRayHit16 r;
-        packet16(&r.ray, valid, base, m, o, d, tmin, NULL);
+        packet16(&r.ray, valid, base, m, o, d, tmin, tmax);
         for (int i = 0; i < 16; i++) {
             r.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
             r.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;

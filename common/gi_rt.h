@@ -44,6 +44,9 @@ int gi_rt_intersect(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tma
  * packets of 16; found[i] = 1 and hit[i] set when ray i hits. */
 void gi_rt_intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, float tmin, gi_hit *hit,
                        uint8_t *found);
+/* gi_rt_intersect_n with each ray ending at tmax[i] (hits beyond are not found). */
+void gi_rt_intersect_n_upto(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, const float *tmax, gi_hit *hit,
+                            uint8_t *found);
 /* 1 if anything blocks o + t d for t in (tmin, tmax). */
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax);
 /* n shadow rays o[i] + t d[i], t in (0, tmax[i]), traced as coherent packets

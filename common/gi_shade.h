@@ -45,6 +45,15 @@ typedef struct gi_shade_opts {
                            mean of its gathering points' irradiance and half their weighted
                            linear fit (gi_shade.c, linear_fit); 0: the mean alone (the
                            irradiance cache's) */
+    /* near field: the first bounce of direct light off surfaces within
+     * near_field metres of a pixel sample, computed at the sample (short
+     * rays, traced once per view, and a shadow ray per hit and light per
+     * frame) instead of interpolated between gathering points, which cannot
+     * follow its peak along a concave crease beside a lit face (gi_shade.c,
+     * near-field). < 0 (default): 1.25 times the .gih's R+; 0: off. Point,
+     * spot and directional lights; area and emissive lights stay
+     * interpolated. */
+    float near_field;
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# t130-relight-near-field: a wall over a sunlit ledge 4 cm deep (mkledge.py), the
+# concave crease along which the light the ledge throws onto the wall peaks within a
+# few centimetres, between gathering points. With the near field (the default) the
+# relight is nearer a 1024-spp reference than without it (--near-field 0), and within
+# nrmse 0.06 of it; a negative reach is refused.
+. "$(dirname "$0")/lib.sh"
+command -v python3 >/dev/null || { echo "ok 1 # skip python3 missing"; exit 0; }
+S=$TMP/ledge.gltf
+python3 "$(dirname "$0")/mkledge.py" "$S" || { not_ok "writing the ledge"; finish; }
+cat >"$TMP/v.script" <<'SCRIPT'
+resolution 64 48
+camera position 1.5 1.06 0 target 0 1.06 0 up 0 1 0 fov 8
+light sun directional direction -0.3 -1 0.1 illuminance 1000
+frame ledge
+SCRIPT
+expect_success "precompute" gi-precompute -q "$S" -o "$TMP/l.gip" --photons 200000
+expect_success "hvds" gi-hvds -q "$S" "$TMP/l.gip" -o "$TMP/l.gih"
+expect_success "relight, near field (default)" gi-relight -v "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/on"
+cp "$TMP/stderr" "$TMP/on.log"
+check "it traced the near field" grep -q "near field: .* rays of .* samples end within" "$TMP/on.log"
+expect_success "relight, --near-field 0" gi-relight -v "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/off" --near-field 0
+cp "$TMP/stderr" "$TMP/off.log"
+check "--near-field 0 traces none" bash -c "! grep -q 'near field' '$TMP/off.log'"
+expect_success "reference, 1024 spp" gi-compare render -q "$S" "$TMP/v.script" --frame ledge --spp 1024 -o "$TMP/ref.exr"
+e_on=$(gi-compare diff "$TMP/on/ledge.exr" "$TMP/ref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
+e_off=$(gi-compare diff "$TMP/off/ledge.exr" "$TMP/ref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
+check "the near field brings it nearer the reference (nrmse $e_on against $e_off without)" \
+  awk -v a="$e_on" -v b="$e_off" 'BEGIN { exit !(a != "" && b != "" && a + 0.005 < b + 0) }'
+check "within nrmse 0.06 of the reference ($e_on)" awk -v a="$e_on" 'BEGIN { exit !(a != "" && a + 0 < 0.06) }'
+expect_exit 2 "--near-field -1 refused" gi-relight "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/x" --near-field -1
+finish
