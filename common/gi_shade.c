@@ -2149,19 +2149,71 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
     gi_rng r;
     gi_rng_seed(&r, 0xed9e, pix, 0);
     b->acc = acc;
-    uint8_t sent[(GI_SHADE_AA_MAX + 2) * (GI_SHADE_AA_MAX + 2)];
+    enum { NC = (GI_SHADE_AA_MAX + 2) * (GI_SHADE_AA_MAX + 2) };
+    uint8_t sent[NC], found[NC];
+    gi_vec3 cro[NC], crd[NC];
+    gi_hit chit[NC];
     for (int j = 0, cell = 0; cell < aa * aa; cell++) {
         if (cell == aa * aa / 2)
             continue;
         float fx = (float)x + ((float)(cell % aa) + gi_rng_float(&r)) / (float)aa;
         float fy = (float)y + ((float)(cell / aa) + gi_rng_float(&r)) / (float)aa;
+        gi_camera_frame_ray(&sh->cf, fx, fy, &cro[j], &crd[j]);
+        j++;
+    }
+    /* The points are where the camera rays meet the surface, found by
+     * Embree; the centre's plane stands in only where a ray finds another
+     * surface. On a curved face the plane leaves the surface within the
+     * pixel, and on a concave one (Sponza's arches, seen from below) its
+     * points lie behind the surface, which blocks their shadow rays: lit
+     * pixels beside a shadow's edge lost ~40% of their sunlight (Sponza
+     * sun-b, 320 x 240: 62 cd/m2 where the path tracer and 4 x 4 samples of
+     * the real surface find 108; the frame's direct part 0.0701 -> 0.0636
+     * nrmse against 512 spp, the frame 0.1199 -> 0.1159). */
+    const float fp = 2.0f * tanf(0.5f * cam->yfov) / (float)h * c->tsurf;
+    /* Where the centre's 4 neighbours lie on its plane, so does the pixel
+     * (within their diamond): the plane's points are the surface's, and no
+     * ray is needed (Sponza: most shadow edges fall on floors and walls;
+     * tracing the rays at every such pixel cost light moves 5-12 ms) */
+    int flat = 1;
+    const int nbx[4] = {-1, 1, 0, 0}, nby[4] = {0, 0, -1, 1};
+    for (int k = 0; k < 4 && flat; k++) {
+        int xx = x + nbx[k], yy = y + nby[k];
+        if (xx < 0 || yy < 0 || xx >= w || yy >= h)
+            continue;
+        const ssurf *q = &sh->sf[(size_t)yy * (size_t)w + (size_t)xx];
+        if (!q->valid || q->tri == c->tri)
+            continue;
+        float dn = q->ng[0] * c->ng[0] + q->ng[1] * c->ng[1] + q->ng[2] * c->ng[2];
+        float off = fabsf((q->p[0] - c->p[0]) * c->ng[0] + (q->p[1] - c->p[1]) * c->ng[1] +
+                          (q->p[2] - c->p[2]) * c->ng[2]);
+        flat = dn >= 0.99999f && off <= 1e-3f * fp;
+    }
+    if (flat)
+        memset(found, 0, (size_t)NE);
+    else
+        gi_rt_intersect_n(sh->rt, NE, cro, crd, 0.0f, chit, found);
+    for (int j = 0; j < NE; j++) {
         acc[j] = gi_v3(0, 0, 0);
-        gi_vec3 ro, rd;
-        gi_camera_frame_ray(&sh->cf, fx, fy, &ro, &rd);
+        gi_vec3 ro = cro[j], rd = crd[j];
+        int on = 0;
+        if (found[j]) {
+            gi_surface hs;
+            gi_rt_surface(sh->rt, &chit[j], &hs);
+            gi_vec3 hn = gi_dot(hs.ng, rd) > 0.0f ? gi_neg(hs.ng) : hs.ng;
+            if (gi_dot(hn, ng) >= 0.95f && fabsf(gi_dot(gi_sub(hs.p, p), ng)) <= GI_SHADE_STEP * fp) {
+                gi_v3store(sub.p, hs.p);
+                gi_v3store(sub.ng, hn);
+                on = 1;
+            }
+        }
         float dn = gi_dot(rd, ng), t = pn / dn;
-        if (dn < 0.0f && t > 0.0f && isfinite(t)) {
-            gi_vec3 q = gi_add(ro, gi_scale(rd, t));
-            gi_v3store(sub.p, q);
+        if (!on && dn < 0.0f && t > 0.0f && isfinite(t)) {
+            gi_v3store(sub.p, gi_add(ro, gi_scale(rd, t)));
+            gi_v3store(sub.ng, ng);
+            on = 1;
+        }
+        if (on) {
             gi_v3store(sub.wo, gi_neg(rd));
             sent[j] = (uint8_t)(sb_light(b, &sub, mats, lt, l, 1, o->seed, pix * 64u + 1u + (uint64_t)j,
                                          (uint32_t)j) > 0);
@@ -2169,7 +2221,6 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
             /* the plane is not seen there: keep the centre sample's value */
             sent[j] = (uint8_t)(sb_light(b, c, mats, lt, l, 1, o->seed, pix * 64u, (uint32_t)j) > 0);
         }
-        j++;
     }
     acc[NE] = gi_v3(0, 0, 0);
     sb_light(b, c, mats, lt, l, 1, o->seed, pix * 64u, (uint32_t)NE);
