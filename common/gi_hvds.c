@@ -397,6 +397,57 @@ static cand *make_candidates(const gi_scene *s, size_t count, uint64_t seed, siz
     return c;
 }
 
+/* Drop the candidates that no open space sees: every one of up to 8
+ * stratified cosine rays from the candidate finds the back of a
+ * single-sided surface (which absorbs). Such a face lies inside other
+ * geometry (Sponza: a second layer of the vaults 1 cm behind the visible
+ * one, facing the same way), so no light reaches it and no camera outside
+ * sees it; left in, its points hold no light and, within a radius of the
+ * visible surface with its normal, darkened the pixels that interpolate
+ * them (hard-lights.script sun-wide: blotches of 3-10 cd/m2 on a vault
+ * where the path tracer finds 25-30), and they covered the visible
+ * surface's own candidates in the rejection. The first ray decides for
+ * most: a front face or the sky keeps the candidate. Compacts c in place
+ * (order kept); returns how many were dropped. */
+static size_t drop_enclosed(const gi_scene *s, const gi_rt *rt, cand *c, size_t *nc, uint64_t seed, int threads)
+{
+    enum { NR = 8 };
+    size_t n = *nc;
+    uint8_t *drop = calloc(n + 1, 1);
+    if (!drop)
+        return 0; /* keep them all: the points are as before */
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
+    for (size_t i = 0; i < n; i++) {
+        gi_rt_thread_init();
+        gi_rng rng;
+        gi_rng_seed(&rng, seed, i, 0xe2c105ed);
+        gi_vec3 p = gi_v3p(c[i].pos), nn = gi_v3p(c[i].nrm);
+        int back = 0;
+        for (int k = 0; k < NR && back == k; k++) {
+            gi_vec3 d;
+            cosine_dir(nn, ((float)(k & 3) + gi_rng_float(&rng)) * 0.25f,
+                       ((float)(k >> 2) + gi_rng_float(&rng)) * 0.5f, &d);
+            gi_hit h;
+            if (!gi_rt_intersect(rt, gi_rt_offset(p, nn, d), d, 0.0f, INFINITY, &h))
+                break; /* the sky */
+            const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
+            gi_vec3 a = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+            gi_vec3 ng = gi_cross(gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), a),
+                                  gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), a));
+            if (gi_dot(ng, d) > 0.0f && !s->materials[s->tri_material[h.tri]].double_sided)
+                back++;
+        }
+        drop[i] = back == NR;
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!drop[i])
+            c[m++] = c[i];
+    free(drop);
+    *nc = m;
+    return n - m;
+}
+
 /* Spatial hash of accepted gathering points for the rejection test. */
 typedef struct grid {
     float cell;
@@ -892,6 +943,10 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         rc = gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu candidates", ncand);
         goto fail;
     }
+    size_t nenc = nc ? drop_enclosed(s, rt, c, &nc, o.seed, threads) : 0;
+    if (nenc)
+        gi_verbose("candidates: %zu of %zu inside other geometry (every probe ray finds a back face) dropped",
+                   nenc, nc + nenc);
     if (nc == 0) {
         rc = gi_status_set(st, GI_EXIT_DATA, "%s: the scene has no surface to place gathering points on",
                            s->path);
