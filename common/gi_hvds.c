@@ -409,9 +409,35 @@ static cand *make_candidates(const gi_scene *s, size_t count, uint64_t seed, siz
  * surface's own candidates in the rejection. The first ray decides for
  * most: a front face or the sky keeps the candidate. Compacts c in place
  * (order kept); returns how many were dropped. */
-static size_t drop_enclosed(const gi_scene *s, const gi_rt *rt, cand *c, size_t *nc, uint64_t seed, int threads)
+/* 1 if every one of 8 stratified cosine rays from p (normal nn) finds the
+ * back of a single-sided face: p lies inside other geometry (Sponza: a second
+ * layer of the vaults 1.2 cm behind the visible one; floor under a column). */
+static int enclosed_at(const gi_scene *s, const gi_rt *rt, gi_vec3 p, gi_vec3 nn, uint64_t seed, uint64_t i,
+                       uint64_t salt)
 {
     enum { NR = 8 };
+    gi_rng rng;
+    gi_rng_seed(&rng, seed, i, salt);
+    int back = 0;
+    for (int k = 0; k < NR && back == k; k++) {
+        gi_vec3 d;
+        cosine_dir(nn, ((float)(k & 3) + gi_rng_float(&rng)) * 0.25f, ((float)(k >> 2) + gi_rng_float(&rng)) * 0.5f,
+                   &d);
+        gi_hit h;
+        if (!gi_rt_intersect(rt, gi_rt_offset(p, nn, d), d, 0.0f, INFINITY, &h))
+            break; /* the sky */
+        const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
+        gi_vec3 a = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+        gi_vec3 ng = gi_cross(gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), a),
+                              gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), a));
+        if (gi_dot(ng, d) > 0.0f && !s->materials[s->tri_material[h.tri]].double_sided)
+            back++;
+    }
+    return back == NR;
+}
+
+static size_t drop_enclosed(const gi_scene *s, const gi_rt *rt, cand *c, size_t *nc, uint64_t seed, int threads)
+{
     size_t n = *nc;
     uint8_t *drop = calloc(n + 1, 1);
     if (!drop)
@@ -419,25 +445,7 @@ static size_t drop_enclosed(const gi_scene *s, const gi_rt *rt, cand *c, size_t 
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
     for (size_t i = 0; i < n; i++) {
         gi_rt_thread_init();
-        gi_rng rng;
-        gi_rng_seed(&rng, seed, i, 0xe2c105ed);
-        gi_vec3 p = gi_v3p(c[i].pos), nn = gi_v3p(c[i].nrm);
-        int back = 0;
-        for (int k = 0; k < NR && back == k; k++) {
-            gi_vec3 d;
-            cosine_dir(nn, ((float)(k & 3) + gi_rng_float(&rng)) * 0.25f,
-                       ((float)(k >> 2) + gi_rng_float(&rng)) * 0.5f, &d);
-            gi_hit h;
-            if (!gi_rt_intersect(rt, gi_rt_offset(p, nn, d), d, 0.0f, INFINITY, &h))
-                break; /* the sky */
-            const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
-            gi_vec3 a = gi_v3p(s->positions + 3 * (size_t)ix[0]);
-            gi_vec3 ng = gi_cross(gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), a),
-                                  gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), a));
-            if (gi_dot(ng, d) > 0.0f && !s->materials[s->tri_material[h.tri]].double_sided)
-                back++;
-        }
-        drop[i] = back == NR;
+        drop[i] = (uint8_t)enclosed_at(s, rt, gi_v3p(c[i].pos), gi_v3p(c[i].nrm), seed, i, 0xe2c105ed);
     }
     size_t m = 0;
     for (size_t i = 0; i < n; i++)
@@ -917,6 +925,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     uint32_t **ptmp = NULL, **stmp = NULL;
     uint32_t *pcnt = NULL, *scnt0 = NULL, *scnt1 = NULL;
     uint64_t *ksub = NULL, *ksub0 = NULL;
+    uint8_t *phid = NULL;
 
     /* 1. gathering points */
     double total = 0.0;
@@ -1061,6 +1070,32 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         gi_v3store(pnrm + 3 * p, gn);
         pbin[p] = (int8_t)gi_hvds_normal_bin(pnrm + 3 * p);
     }
+    /* entry points inside other geometry (enclosed_at: the floor under a
+     * column, the hidden layer of a vault): no light reaches them and no
+     * gathering ray sees them. They take no key, and their share of each
+     * key's entry area is taken out of the key's area (step 7): a key's
+     * radiance is its flux over the area that can hold it. Before, they
+     * diluted their keys: on Sponza under the sun the gathering points held
+     * 0.91 of the path tracer's indirect illuminance (the sum over 400 random
+     * points), under the arcade lights 0.995; a test court with columns
+     * standing on its floor 0.987, the same with the floor cut out under them
+     * 1.001. */
+    phid = calloc(P + 1, 1);
+    if (!phid)
+        goto oom;
+    size_t nhid = 0;
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads) reduction(+ : nhid)
+    for (uint32_t e = 0; e < gip->num_entries; e++) {
+        gi_rt_thread_init();
+        uint64_t v0 = gip->path_start[e];
+        if (enclosed_at(s, rt, gi_v3p(ppos + 3 * v0), gi_v3p(pnrm + 3 * v0), o.seed, e, 0x41dde7u)) {
+            phid[v0] = 1;
+            nhid++;
+        }
+    }
+    if (nhid)
+        gi_verbose("entry points: %zu of %u inside other geometry (every probe ray finds a back face): no key",
+                   nhid, gip->num_entries);
 
     /* 4. octree: root cube, then refinement by footprints */
     {
@@ -1138,11 +1173,14 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             gi_rt_thread_init();
             uint32_t cnt[GI_HVDS_NORMAL_BINS] = {0};
             for (uint32_t j = b0; j < b1; j++)
-                cnt[pbin[order[j]]]++;
+                if (!phid[order[j]])
+                    cnt[pbin[order[j]]]++;
             uint32_t pick[GI_HVDS_NORMAL_BINS][6];
             uint32_t seen[GI_HVDS_NORMAL_BINS] = {0}, npk[GI_HVDS_NORMAL_BINS] = {0};
             for (uint32_t j = b0; j < b1; j++) {
                 uint32_t p = order[j];
+                if (phid[p])
+                    continue;
                 int b = pbin[p];
                 uint32_t m = cnt[b] < 6 ? cnt[b] : 6;
                 /* take the photons at ranks floor(q * cnt / m), q = 0..m-1 */
@@ -1193,7 +1231,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     if (!recs)
         goto oom;
     for (uint64_t p = 0; p < P; p++) {
-        for (int32_t ni = pleaf[p]; ni >= 0; ni = t.n[ni].parent) {
+        for (int32_t ni = phid[p] ? -1 : pleaf[p]; ni >= 0; ni = t.n[ni].parent) {
             int ins = kh_put(&kh, kh_code(ni, pbin[p]), 0);
             if (ins < 0)
                 goto oom;
@@ -1231,7 +1269,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             reps[i * NREP + r] = UINT32_MAX;
     }
     for (uint64_t p = 0; p < P; p++)
-        h->photon_key[p] = kh_get(&kh, kh_code(pleaf[p], pbin[p]));
+        h->photon_key[p] = phid[p] ? GI_HVDS_NO_KEY : kh_get(&kh, kh_code(pleaf[p], pbin[p]));
     /* representatives: leaf keys from their photons (spread by rank), parents from children */
     {
         uint32_t *kcnt = calloc(nrec + 1, sizeof *kcnt), *kseen = calloc(nrec + 1, sizeof *kseen);
@@ -1243,9 +1281,12 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             goto oom;
         }
         for (uint64_t p = 0; p < P; p++)
-            kcnt[h->photon_key[p]]++;
+            if (h->photon_key[p] != GI_HVDS_NO_KEY)
+                kcnt[h->photon_key[p]]++;
         for (uint64_t p = 0; p < P; p++) {
             uint32_t kk = h->photon_key[p];
+            if (kk == GI_HVDS_NO_KEY)
+                continue;
             uint32_t m = kcnt[kk] < NREP ? kcnt[kk] : NREP;
             if (kn[kk] < m && kseen[kk] == (uint32_t)((uint64_t)kn[kk] * kcnt[kk] / m))
                 reps[kk * NREP + kn[kk]++] = (uint32_t)p;
@@ -1287,6 +1328,40 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             float nn[3] = {side ? -ng0.x : ng0.x, side ? -ng0.y : ng0.y, side ? -ng0.z : ng0.z};
             area_walk(&t, &kh, 0, &pg, gi_hvds_normal_bin(nn), area);
         }
+    }
+    if (nhid) {
+        /* the entry area of each key's subtree, all and outside other
+         * geometry; a hidden entry counts in the deepest key above its leaf */
+        double *eall = calloc(nrec + 1, sizeof *eall), *evis = calloc(nrec + 1, sizeof *evis);
+        if (!eall || !evis) {
+            free(eall);
+            free(evis);
+            goto oom;
+        }
+        for (uint32_t e = 0; e < gip->num_entries; e++) {
+            uint64_t v0 = gip->path_start[e];
+            uint32_t ke = GI_HVDS_NO_KEY;
+            for (int32_t ni = pleaf[v0]; ni >= 0 && ke == GI_HVDS_NO_KEY; ni = t.n[ni].parent)
+                ke = kh_get(&kh, kh_code(ni, pbin[v0]));
+            if (ke == GI_HVDS_NO_KEY)
+                continue;
+            eall[ke] += gip->entry_dA[e];
+            if (!phid[v0])
+                evis[ke] += gip->entry_dA[e];
+        }
+        for (size_t i = 0; i < nrec; i++) {
+            uint32_t pk = h->key_parent[i];
+            if (pk != GI_HVDS_NO_KEY) {
+                eall[pk] += eall[i];
+                evis[pk] += evis[i];
+            }
+            /* a key whose entries are all hidden keeps its area: its
+             * photons came along paths, and its entries tell nothing */
+            if (eall[i] > 0.0 && evis[i] > 0.0 && evis[i] < eall[i])
+                area[i] *= evis[i] / eall[i];
+        }
+        free(eall);
+        free(evis);
     }
     for (size_t i = 0; i < nrec; i++)
         h->key_scale[i] = area[i] > 0.0 ? (float)(1.0 / (GI_PI * area[i])) : 0.0f;
@@ -1580,6 +1655,7 @@ done:
     free(lstart);
     free(pleaf);
     free(pbin);
+    free(phid);
     free(pnrm);
     free(ppos);
     free(hits);
