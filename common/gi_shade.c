@@ -3680,7 +3680,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the near field");
         }
         const float *nfe = gpe != gpe_all ? sh->nf_ex : NULL;
-#pragma omp parallel for schedule(static) num_threads(threads)
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
         for (size_t i = 0; i < ns; i++) {
             gi_vec3 v;
             const ssurf *sf = &sh->sf[i];
@@ -3711,7 +3711,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             }
             gi_v3store(sh->cind + 3 * i, v);
         }
-#pragma omp parallel for schedule(static) num_threads(threads)
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
         for (size_t pix = 0; pix < np; pix++) {
             gi_vec3 sum = gi_v3(0, 0, 0);
             int count = S;
