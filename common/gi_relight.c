@@ -1027,4 +1027,5 @@ const float *gi_relight_gpoint_gradient(gi_relight *r)
 const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r) { return r->gp_e; }
 const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }
 const float *gi_relight_key_flux(const gi_relight *r) { return r->key_flux; }
+const float *gi_relight_key_flux0(const gi_relight *r) { return r->key_flux0; }
 const gi_relight_times *gi_relight_times_last(const gi_relight *r) { return &r->times; }

@@ -68,6 +68,7 @@ const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r);
 const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r);
 /* Flux (RGB) accumulated in each key (after set_lights). */
 const float *gi_relight_key_flux(const gi_relight *r);
+const float *gi_relight_key_flux0(const gi_relight *r); /* the entry points' share of key_flux (split rays), or NULL */
 /* Ready gi_relight_key_at: a hash grid over the photon vertices (built once,
  * ~100 ms per million photons). Not thread-safe; 0 or a GI_EXIT_* code. */
 int gi_relight_prepare_keys(gi_relight *r, gi_status *st);

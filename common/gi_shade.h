@@ -76,6 +76,11 @@ typedef struct gi_shade_opts {
     void (*key_at)(const void *ctx, size_t n, const float *p, const float *nrm, uint32_t *out);
     const void *key_ctx;
     const float *key_flux;
+    /* NULL, or the entry points' share of key_flux (gi_relight_key_flux0):
+     * with key_at, a gathering point's near field is taken out of its
+     * irradiance as its gather read it from the keys (the first bounce off
+     * the surfaces its near rays find), not as computed exactly */
+    const float *key_flux0;
     /* NULL, or called before the indirect light with the gathering points
      * the view reads (sorted, each once), so that only those need values
      * (gi_relight_gather); gather_ctx is its first argument */

@@ -455,18 +455,22 @@ int main(int argc, char **argv)
             rc = gi_status_set(&st, GI_EXIT_SYSTEM, "out of memory for a %dx%d frame", fr.width, fr.height);
             break;
         }
-        /* glossy reflection gathers at the pixels: the photon grid, once */
+        /* the photon grid, once: for glossy reflection gathered at the
+         * pixels, and for the near field (the keys its points' near rays
+         * find, gi_shade_opts.key_flux0) */
         int any_gather = 0;
         for (size_t m = 0; m < fr.num_materials; m++)
             any_gather |= gi_shade_gathers(&fr.materials[m], &so);
-        if (any_gather && !so.key_at) {
+        int near = so.near_field != 0.0f && so.indirect && gi_relight_key_flux0(rl);
+        if ((any_gather || near) && !so.key_at) {
             double tk = gi_now();
             if ((rc = gi_relight_prepare_keys(rl, &st)))
                 break;
-            gi_verbose("photon grid for glossy gathers: %.1f ms", 1e3 * (gi_now() - tk));
+            gi_verbose("photon grid (glossy gathers, near field): %.1f ms", 1e3 * (gi_now() - tk));
             so.key_at = key_at;
             so.key_ctx = rl;
             so.key_flux = gi_relight_key_flux(rl);
+            so.key_flux0 = gi_relight_key_flux0(rl);
         }
         gi_shade_times stt;
         if ((rc = gi_shade_frame(sh, gb, &fr.camera, fr.width, fr.height, flights, nfl, fr.materials,
