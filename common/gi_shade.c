@@ -24,7 +24,14 @@
 #include "gi_texfilter.h"
 
 #define GI_SHADE_AA_MAX 7 /* largest --aa */
-#define GI_SHADE_NF_AUTO 1.25f /* the near field's default reach, in R+ */
+/* The near field's default reach, in R+. 1.25 while a point gave up the
+ * exact near field; since it gives up what its gather read (nf_prepare),
+ * a shorter reach does better on Sponza: sun-b (4096 spp, three gi-hvds
+ * seeds) 0.1006 / 0.1011 / 0.0996 -> 0.0946 / 0.0956 / 0.0950 at 0.65,
+ * sun-moved 0.0862 / 0.0869 / 0.0864 -> 0.0866 / 0.0875 / 0.0869,
+ * arcade-moved, sun-c and arcades-b within 0.0004 (seed 1 at 0.87 / 1.09 /
+ * 1.96: sun-b 0.0953 / 0.0996 / 0.1060) */
+#define GI_SHADE_NF_AUTO 0.65f
 #define GI_SHADE_NF_LC 4      /* lights whose near-field terms are kept */
 #define GI_SHADE_COV_MAX 31 /* largest coverage grid */
 #define GI_SHADE_K 8 /* gathering points kept per pixel sample (largest weights) */

@@ -68,7 +68,7 @@ static void help(void)
            "  --near-field R|auto     light that lit surfaces within R metres of a pixel throw onto it\n"
            "                          (first bounce, point, spot and sun lights) computed at the\n"
            "                          pixel, not interpolated between gathering points: brighter,\n"
-           "                          truer concave creases beside lit faces (default auto: 1.25\n"
+           "                          truer concave creases beside lit faces (default auto: 0.65\n"
            "                          times the .gih's R+; 0 turns it off)\n"
            );
     fputs("  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
