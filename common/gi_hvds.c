@@ -975,11 +975,9 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     if (!N) {
         /* auto: a fixed budget of rays over the scene's points. The relight's
          * gather costs one read per (point, key) pair, at most one per ray, so
-         * a scene with few points (a room) gets more rays each for the same
-         * cost as a large one: the Cornell box's 23k points 729 (nrmse against
-         * 2048 spp at 256x256, spot and point lights: 0.0536 -> 0.0499,
-         * 0.0521 -> 0.0479, 0.0576 -> 0.0549, of which ~0.04 is the
-         * reference's noise), Sponza's 70k points 256 as before */
+         * the budget bounds its cost. 2^28 gives Sponza's 157k points 1024
+         * (docs/man/gi-hvds.md: the more-variants sun-c 0.102 -> 0.090 against
+         * 4096 spp, light moves' gather 4.5 -> 7-8 ms, the .gih 169 -> 362 MB) */
         double per = (double)GI_HVDS_RAY_BUDGET / (double)(ng ? ng : 1);
         N = square_rays((int)fmin(fmax(per, 256.0), 1024.0), &k);
         o.gather_rays = N;
@@ -1036,7 +1034,14 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
                 trace_gray(s, rt, gi_v3p(cd->pos), n, d, (float)GI_PI / ((float)nfoot * coso), gh, &dist);
                 if (isfinite(dist)) {
                     inv_sum += 1.0 / fmax(dist, 1e-6);
-                    dmin = fminf(dmin, dist);
+                    /* the radius (the splat's weights) is the nearest hit of
+                     * the rays in 16 of the k rows and 16 of the k columns of
+                     * strata: the same for any N >= 256. The nearest of all
+                     * 1024 rays is nearer, and the splat then spreads each
+                     * point less (Sponza, 1024 rays: arcade-moved 0.0986 ->
+                     * 0.1011 against 0.0966 with this radius) */
+                    if (((r % k) * 16) % k < 16 && ((r / k) * 16) % k < 16)
+                        dmin = fminf(dmin, dist);
                 }
             }
             gp->r_harmonic = inv_sum > 0.0 ? (float)(N / inv_sum) : INFINITY;

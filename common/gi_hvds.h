@@ -31,7 +31,7 @@ extern "C" {
 /* --gather-rays by default: this many rays over all gathering points, 256 to
  * 1024 per point; a ray's footprint is that of one of at most
  * GI_HVDS_FOOT_RAYS rays */
-#define GI_HVDS_RAY_BUDGET (1u << 25)
+#define GI_HVDS_RAY_BUDGET (1u << 28)
 #define GI_HVDS_FOOT_RAYS 256
 
 enum { GI_GATHER_REJECTION = 0, GI_GATHER_KMEANS = 1 };

@@ -26,7 +26,7 @@ static void help(void)
            "  -o, --output FILE        the .gih to write (required)\n"
            "  --gather rejection|kmeans  gathering-point selection (default rejection: Tabellion metric)\n"
            "  --gather-rays N|auto     rays per gathering point, rounded to a square (default auto:\n"
-           "                           2^25 over the points, 256 to 1024)\n"
+           "                           2^28 over the points, 256 to 1024)\n"
            "  --r-min R, --r-max R     min/max spacing of gathering points in metres\n"
            "                           (default R+ = scene diagonal / 181, R- = R+ / 5)\n"
            "  --dir-bins N             direction bins for glossy keys (default %d)\n"
