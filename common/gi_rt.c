@@ -253,6 +253,15 @@ void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d
     }
 }
 
+gi_vec3 gi_scene_tri_normal(const gi_scene *s, uint32_t tri)
+{
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    gi_vec3 p0 = gi_v3p(s->positions + 3 * (size_t)ix[0]);
+    gi_vec3 e1 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[1]), p0);
+    gi_vec3 e2 = gi_sub(gi_v3p(s->positions + 3 * (size_t)ix[2]), p0);
+    return gi_norm(gi_cross(e1, e2));
+}
+
 void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surface *sf)
 {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
@@ -262,7 +271,7 @@ void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surf
     float w = 1.0f - u - v;
     gi_vec3 e1 = gi_sub(p1, p0), e2 = gi_sub(p2, p0);
     sf->p = gi_add(p0, gi_add(gi_scale(e1, u), gi_scale(e2, v)));
-    sf->ng = gi_norm(gi_cross(e1, e2));
+    sf->ng = gi_norm(gi_cross(e1, e2)); /* (gi_scene_tri_normal: the same sums) */
     gi_vec3 n0 = gi_v3p(s->normals + 3 * (size_t)ix[0]);
     gi_vec3 n1 = gi_v3p(s->normals + 3 * (size_t)ix[1]);
     gi_vec3 n2 = gi_v3p(s->normals + 3 * (size_t)ix[2]);

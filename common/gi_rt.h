@@ -57,6 +57,8 @@ void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d
 void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);
 /* The same for triangle tri at barycentrics (u, v) of scene s (no ray tracer needed). */
 void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surface *sf);
+/* Triangle tri's unit geometric normal, bit for bit gi_scene_surface's ng. */
+gi_vec3 gi_scene_tri_normal(const gi_scene *s, uint32_t tri);
 /* Move p off its surface along ng (towards the side dir points to) by a few
  * ulps scaled with |p|: robust for scenes from millimetres to kilometres
  * (Waechter and Binder 2019, reimplemented). */
