@@ -24,6 +24,8 @@ material metal roughness 0.3
 frame rough03
 material metal roughness 0.33
 frame rough033
+material metal roughness 0.4
+frame rough04
 material metal metallic 0 roughness 0.2
 frame polished
 SCRIPT
@@ -37,7 +39,7 @@ expect_success "relight" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.sc
 check "material changes do not rasterise again" awk -F, '
   NR == 1 { for (i = 1; i <= NF; i++) c[$i] = i; next }
   $c["changed"] == "materials" { n++; if ($c["t_gbuffer_ms"] + 0 > 0.5) bad++ }
-  END { exit !(n == 4 && !bad) }' "$TMP/t.csv"
+  END { exit !(n == 5 && !bad) }' "$TMP/t.csv"
 # a dielectric lobe (ks 0.04) takes the gathering points' linear fit: the
 # same image as --glossy-rays 0; with --glossy-min-ks 0 it gathers
 expect_success "relight, dielectric without gathers" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
@@ -54,6 +56,13 @@ expect_success "relight, rough033 drawn afresh" gi-relight -q "$S" "$TMP/r.gip" 
 d2=$(gi-compare diff "$TMP/out/rough033.exr" "$TMP/fresh/rough033.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
 check "a small roughness change reuses the rays (nrmse $d2 from a fresh draw: > 0, < 0.03)" \
   awk -v a="$d2" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.03) }'
+# 0.33 -> 0.4 (exponent 165 -> 76, 0.31 of the 245 drawn for): within the
+# mixture's range (0.25 to 6 times), so the same rays again
+expect_success "relight, rough04 drawn afresh" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
+  -o "$TMP/fresh" --frames rough04
+d4=$(gi-compare diff "$TMP/out/rough04.exr" "$TMP/fresh/rough04.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+check "0.33 -> 0.4 (0.31 of the exponent drawn for) reuses the rays too (nrmse $d4 from a fresh draw: > 0, < 0.04)" \
+  awk -v a="$d4" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.04) }'
 check "a dielectric lobe takes the fit by default (nrmse $d0 from --glossy-rays 0)" \
   awk -v a="$d0" 'BEGIN { exit !(a != "" && a + 0 == 0) }'
 check "and gathers with --glossy-min-ks 0 (nrmse $d1, within 0.01 of the fit)" \
