@@ -290,28 +290,3 @@ void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf)
 {
     gi_scene_surface(rt->s, hit->tri, hit->u, hit->v, sf);
 }
-
-/* Offset by integer ulps (large |p|) or a fixed tiny step (|p| near 0). */
-gi_vec3 gi_rt_offset(gi_vec3 p, gi_vec3 ng, gi_vec3 dir)
-{
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    gi_vec3 n = gi_dot(ng, dir) < 0.0f ? gi_neg(ng) : ng;
-    float pc[3] = {p.x, p.y, p.z}, nc[3] = {n.x, n.y, n.z}, r[3];
-    for (int k = 0; k < 3; k++) {
-        int32_t of = (int32_t)(int_scale * nc[k]);
-        int32_t bits;
-        memcpy(&bits, &pc[k], 4);
-        bits += pc[k] < 0.0f ? -of : of;
-        float pi;
-        memcpy(&pi, &bits, 4);
-        r[k] = fabsf(pc[k]) < origin ? pc[k] + float_scale * nc[k] : pi;
-    }
-    return gi_v3(r[0], r[1], r[2]);
-}
-
-float gi_rt_shadow_tmax(gi_vec3 x, gi_vec3 o, float dist)
-{
-    if (!isfinite(dist))
-        return INFINITY;
-    return gi_fmaxf(0.0f, dist * (1.0f - 1e-3f) - gi_len(gi_sub(o, x)));
-}
