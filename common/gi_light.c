@@ -208,10 +208,6 @@ void gi_light_unit(const gi_light *l, gi_light *unit, float scale[3])
     unit->intensity = 1.0f;
 }
 
-int gi_light_has_area(const gi_light *l)
-{
-    return l->type == GI_LIGHT_AREA || l->type == GI_LIGHT_MESH;
-}
 
 float gi_area_light_intersect(const gi_light *l, gi_vec3 o, gi_vec3 d, float tmin, float tmax,
                               int *front)

@@ -44,7 +44,7 @@ static inline int gi_light_sample_stratum(const gi_light *l, gi_vec3 x, int j, i
 }
 /* 1 for lights with extent (area, emissive mesh): sampled at several points,
  * soft shadows; 0 for point, spot and directional lights. */
-int gi_light_has_area(const gi_light *l);
+static inline int gi_light_has_area(const gi_light *l) { return l->type == GI_LIGHT_AREA || l->type == GI_LIGHT_MESH; }
 /* Light l with strength 1 and white colour in *unit, and what it was in
  * scale (colour times strength, per channel): every quantity gi computes
  * from one light is linear in these, so a light that is only dimmed or

@@ -473,7 +473,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         if (sl->used != 2)
             continue;
         const gi_light *L = &sl->light;
-        int ns = gi_light_has_area(L) ? ks * ks : 1;
+        const int area = gi_light_has_area(L), ns = area ? ks * ks : 1;
         size_t l = lid[u];
         /* entry points come in surface order, so neighbours in the list are
          * near each other: their shadow rays go to Embree as packets */
@@ -503,17 +503,19 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                 for (uint32_t e = e0; e < e1; e++) {
                     gi_vec3 x = gi_v3p(r->entry_pos + 3 * (size_t)e), nn = gi_v3p(r->entry_nrm + 3 * (size_t)e);
                     acc[e - e0] = dacc[e - e0] = gi_v3(0, 0, 0);
-                    gi_rng rng;
+                    gi_rng rng = {0, 0}; /* seeded below when the light has area */
                     /* sampled, also where the pixels take a closed form
                      * (gi_light_analytic): an entry point's light is summed
                      * into keys with its neighbours', which averages the
                      * noise away, and the form costs as much as the rays
                      * (Cornell panel frames: the same nrmse within 0.0005,
                      * 40 ms more per light move) */
-                    gi_rng_seed(&rng, r->seed, e, l);
+                    if (area) /* (a light without area takes no random numbers) */
+                        gi_rng_seed(&rng, r->seed, e, l);
                     for (int j = 0; j < ns; j++) {
                         gi_light_sample ls;
-                        if (!gi_light_sample_stratum(L, x, j, ks, &rng, &ls))
+                        if (!(area ? gi_light_sample_stratum(L, x, j, ks, &rng, &ls)
+                                   : gi_light_sample_at(L, x, 0.5f, 0.5f, &ls)))
                             continue;
                         float cosi = gi_dot(nn, ls.wi);
                         if (cosi <= 0.0f)

@@ -1766,7 +1766,7 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     gi_bsdf_init(&bs, m, gi_mul(gi_v3p(m->base_color), gi_v3p(sf->texel)));
     specular_aa(&bs, sf->nvar);
     int nsmp = gi_light_has_area(lt) ? ka * ka : 1;
-    gi_rng rng;
+    gi_rng rng = {0, 0}; /* seeded below when the light has area */
     /* a rectangle's (or a few emissive triangles') diffuse light is exact
      * unshadowed (Lambert's formula), times the share of the samples' weight
      * that finds the light (a ratio estimator): no noise where the whole
@@ -1792,10 +1792,14 @@ static int sb_light(sbatch *b, const ssurf *sf, const gi_material *mats, const g
     const int kbs = ka >= 2 ? (ka / 2 < SB_MIS_MAX ? ka / 2 : SB_MIS_MAX) : 1, nb = mis ? kbs * kbs : 0;
     const int q0 = b->n;
     double wsum = 0.0;
-    gi_rng_seed(&rng, seed, id, l);
+    /* a light without area takes no random numbers: its stream is not
+     * seeded (3% of a Sponza light move's time went to seeding it) */
+    const int has_area = gi_light_has_area(lt);
+    if (has_area)
+        gi_rng_seed(&rng, seed, id, l);
     for (int j = 0; j < nsmp; j++) {
         gi_light_sample ls;
-        if (!gi_light_sample_stratum(lt, p, j, ka, &rng, &ls))
+        if (!(has_area ? gi_light_sample_stratum(lt, p, j, ka, &rng, &ls) : gi_light_sample_at(lt, p, 0.5f, 0.5f, &ls)))
             continue;
         float cosi = gi_dot(nsn, ls.wi);
         if (cosi <= 0.0f)
