@@ -795,16 +795,74 @@ static void fill_sample(const gi_shade *sh, const gi_camera *cam, int w, int h, 
 /* 1 if the samples of two neighbouring pixels see different surfaces: one
  * sees nothing, other materials, a crease (shading normals > ~18 deg apart)
  * or a depth step (b off a's plane by more than 4 pixel footprints, or by
- * half of one between triangles whose texels differ by over 20%). */
-static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int *texel);
-static int discontinuity(const ssurf *a, const ssurf *b, float pix_angle)
+ * half of one between triangles whose texels differ by over 20%, or by less
+ * where the texture mapping jumps between them). */
+static int discontinuity_tx(const gi_scene *s, const ssurf *a, const ssurf *b, float pix_angle, int *texel);
+static int discontinuity(const gi_shade *sh, const ssurf *a, const ssurf *b, float pix_angle)
 {
-    return discontinuity_tx(a, b, pix_angle, NULL);
+    return discontinuity_tx(sh->s, a, b, pix_angle, NULL);
+}
+
+/* Texture coordinates (of material m's base-colour set) that triangle tri's
+ * mapping gives point p, taken into the triangle's plane; 0 for a degenerate
+ * triangle. */
+static int tri_uv_at(const gi_scene *s, const gi_material *m, uint32_t tri, const float p[3], double uv[2])
+{
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    const float *q0 = s->positions + 3 * (size_t)ix[0], *q1 = s->positions + 3 * (size_t)ix[1],
+                *q2 = s->positions + 3 * (size_t)ix[2];
+    double e1[3], e2[3], v[3];
+    for (int c = 0; c < 3; c++) {
+        e1[c] = (double)q1[c] - q0[c];
+        e2[c] = (double)q2[c] - q0[c];
+        v[c] = (double)p[c] - q0[c];
+    }
+    double d00 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], d01 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
+    double d11 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+    double d20 = v[0] * e1[0] + v[1] * e1[1] + v[2] * e1[2], d21 = v[0] * e2[0] + v[1] * e2[1] + v[2] * e2[2];
+    double den = d00 * d11 - d01 * d01;
+    if (!(den > 0.0))
+        return 0;
+    double b1 = (d11 * d20 - d01 * d21) / den, b2 = (d00 * d21 - d01 * d20) / den;
+    const float *uvs = m->base_color_uv == 1 ? s->uv1 : s->uv0;
+    const float *t0 = uvs + 2 * (size_t)ix[0], *t1 = uvs + 2 * (size_t)ix[1], *t2 = uvs + 2 * (size_t)ix[2];
+    for (int c = 0; c < 2; c++)
+        uv[c] = t0[c] + b1 * ((double)t1[c] - t0[c]) + b2 * ((double)t2[c] - t0[c]);
+    return 1;
+}
+
+/* 1 if the texture mapping jumps between the samples a and b (different
+ * triangles of one textured material): at b, a's triangle's mapping carried
+ * across its plane and b's own disagree by more than 2 texels plus half the
+ * distance (in texels) between a and b. A tile or decal mapped to another
+ * part of the texture than what surrounds it, where the footprint filter of
+ * a sample on one side cannot know the other. Texture repeats are not
+ * jumps. */
+static int uv_seam(const gi_scene *s, const ssurf *a, const ssurf *b)
+{
+    const gi_material *m = &s->materials[a->material];
+    if (m->base_color_tex < 0 || (size_t)m->base_color_tex >= s->num_textures)
+        return 0;
+    const gi_texture *t = &s->textures[m->base_color_tex];
+    double ua[2], ub[2], ua0[2];
+    if (!tri_uv_at(s, m, a->tri, b->p, ua) || !tri_uv_at(s, m, b->tri, b->p, ub) ||
+        !tri_uv_at(s, m, a->tri, a->p, ua0))
+        return 0;
+    const float *x = m->uv_xform;
+    double du[2] = {ub[0] - ua[0], ub[1] - ua[1]}, de[2] = {ua[0] - ua0[0], ua[1] - ua0[1]};
+    double jt[2] = {x[0] * du[0] + x[1] * du[1], x[3] * du[0] + x[4] * du[1]};
+    double et[2] = {x[0] * de[0] + x[1] * de[1], x[3] * de[0] + x[4] * de[1]};
+    if (t->wrap_s != GI_WRAP_CLAMP)
+        jt[0] -= nearbyint(jt[0] / (t->wrap_s == GI_WRAP_MIRROR ? 2.0 : 1.0)) * (t->wrap_s == GI_WRAP_MIRROR ? 2.0 : 1.0);
+    if (t->wrap_t != GI_WRAP_CLAMP)
+        jt[1] -= nearbyint(jt[1] / (t->wrap_t == GI_WRAP_MIRROR ? 2.0 : 1.0)) * (t->wrap_t == GI_WRAP_MIRROR ? 2.0 : 1.0);
+    double jump = hypot(jt[0] * t->width, jt[1] * t->height), ext = hypot(et[0] * t->width, et[1] * t->height);
+    return jump > 2.0 + 0.5 * ext;
 }
 
 /* discontinuity, except that with texel != NULL a pair whose answer depends
  * on a's texel sets *texel = 1 and gives 0 (a's texel not looked up yet) */
-static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int *texel)
+static int discontinuity_tx(const gi_scene *s, const ssurf *a, const ssurf *b, float pix_angle, int *texel)
 {
     if (a->valid != b->valid)
         return 1;
@@ -824,22 +882,27 @@ static int discontinuity_tx(const ssurf *a, const ssurf *b, float pix_angle, int
      * triangle the texture filter takes care of texture edges). glTF
      * VertexColorTest at 160x120 against 256 spp: nrmse 0.203 / 0.249 ->
      * 0.037 / 0.046; Sponza: 581 -> 870 such pixels, sun-b, sun-moved,
-     * arcade-moved 0.1212, 0.0980, 0.0870 -> 0.1204, 0.0976, 0.0863 */
-    if (a->tri != b->tri && off > 0.5f * fp) {
+     * arcade-moved 0.1212, 0.0980, 0.0870 -> 0.1204, 0.0976, 0.0863.
+     * Or no step at all where the mapping jumps (uv_seam): the same tiles
+     * at 96x72 stand 0.49 footprints off the panel: t120 0.234 / 0.384 ->
+     * 0.081 / 0.094; Sponza 870 -> 1323 such pixels, sun-moved and
+     * arcade-moved unchanged (0.0851 / 0.0966) */
+    if (a->tri != b->tri) {
         if (texel) {
-            *texel = 1;
+            if (off > 0.5f * fp || (s && uv_seam(s, a, b)))
+                *texel = 1;
             return 0;
         }
         float ta = gi_luminance(gi_v3p(a->texel)), tb = gi_luminance(gi_v3p(b->texel));
-        if (fabsf(ta - tb) > 0.2f * gi_fmaxf(ta, tb))
+        if (fabsf(ta - tb) > 0.2f * gi_fmaxf(ta, tb) && (off > 0.5f * fp || (s && uv_seam(s, a, b))))
             return 4;
     }
     return 0;
 }
 
-static int discontinuous(const ssurf *a, const ssurf *b, float pix_angle)
+static int discontinuous(const gi_shade *sh, const ssurf *a, const ssurf *b, float pix_angle)
 {
-    return discontinuity(a, b, pix_angle) != 0;
+    return discontinuity(sh, a, b, pix_angle) != 0;
 }
 
 static void pack_rec(const ssurf *sf, srec *r)
@@ -898,7 +961,7 @@ static int nearest_same_surface(const gi_shade *sh, size_t e, const ssurf *o, fl
     float bd = INFINITY;
     for (int j = 0; j <= ne; j++) {
         const ssurf *c = j < ne ? &sh->esf[e * (size_t)ne + (size_t)j] : &sh->sf[pix];
-        if (discontinuous(o, c, pix_angle))
+        if (discontinuous(sh, o, c, pix_angle))
             continue;
         float cx = j < ne ? sfx[j] : (float)(pix % (size_t)w) + 0.5f, cy = j < ne ? sfy[j] : (float)(pix / (size_t)w) + 0.5f;
         float d = (fx - cx) * (fx - cx) + (fy - cy) * (fy - cy);
@@ -951,7 +1014,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
      * moves ~40, ~65 and ~115 ms slower for 4 x 4, 5 x 5 and 7 x 7 */
     int one = 1;
     for (int j = 0; j < ne && one; j++)
-        one = !discontinuous(smp[j], smp[ne], pix_angle);
+        one = !discontinuous(sh, smp[j], smp[ne], pix_angle);
     const int cov = one ? cov_all - 2 : cov_all;
     if (cov < 1) {
         for (int j = 0; j < ns; j++)
@@ -963,7 +1026,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
     uint8_t same[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX][GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
     for (int a = 0; a < ns; a++)
         for (int b = a; b < ns; b++)
-            same[a][b] = same[b][a] = (uint8_t)!discontinuous(smp[a], smp[b], pix_angle);
+            same[a][b] = same[b][a] = (uint8_t)!discontinuous(sh, smp[a], smp[b], pix_angle);
     const float spacing = 1.0f / sqrtf((float)ns); /* between neighbouring samples, about */
     gi_rng r;
     gi_rng_seed(&r, 0xc0e7, pix, 0);
@@ -1042,7 +1105,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
                                 &t);
                 for (int pass = 0; pass < 2 && best < 0; pass++) {
                     for (int j = 0; j < ns; j++) {
-                        if (!pass && discontinuous(&t, smp[j], pix_angle))
+                        if (!pass && discontinuous(sh, &t, smp[j], pix_angle))
                             continue;
                         float d = (fx[i] - spx[j]) * (fx[i] - spx[j]) + (fy[i] - spy[j]) * (fy[i] - spy[j]);
                         if (d < bd) {
@@ -1052,7 +1115,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
                     }
                     if (!pass && best < 0) {
                         for (int g = 0; g < nog && orphan < 0; g++)
-                            if (!discontinuous(&t, &og_sf[g], pix_angle))
+                            if (!discontinuous(sh, &t, &og_sf[g], pix_angle))
                                 orphan = g;
                         if (orphan < 0 && nog < OG) {
                             orphan = nog++;
@@ -1132,7 +1195,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
         spx[victim] = og_x[g];
         spy[victim] = og_y[g];
         for (int k = 0; k < ns; k++)
-            same[victim][k] = same[k][victim] = (uint8_t)(k == victim || !discontinuous(o, smp[k], pix_angle));
+            same[victim][k] = same[k][victim] = (uint8_t)(k == victim || !discontinuous(sh, o, smp[k], pix_angle));
     }
     int subst = 0;
     for (int j = 0; j < ne; j++)
@@ -1175,7 +1238,7 @@ static void edge_pixel(gi_shade *sh, const gi_camera *cam, int w, int h, size_t 
                                 y + 1 < h ? &sh->sf[pix + w] : NULL};
         int reused = 0, wreused = 0;
         for (int q = 0; q < 5 && !reused && !wreused; q++)
-            if (cand[q] && cand[q]->valid && !discontinuous(o, cand[q], pix_angle)) {
+            if (cand[q] && cand[q]->valid && !discontinuous(sh, o, cand[q], pix_angle)) {
                 o->npairs = cand[q]->npairs;
                 memcpy(o->gp, cand[q]->gp, sizeof o->gp);
                 memcpy(o->w, cand[q]->w, sizeof o->w);
@@ -1230,7 +1293,7 @@ static void edge_pixel(gi_shade *sh, const gi_camera *cam, int w, int h, size_t 
             (o->valid && (o->material != c0->material ||
                           fabsf(gi_luminance(gi_v3p(o->texel)) - t0) > 0.2f * t0)))
             sh->ehard[e] = 1;
-        else if (o->valid && discontinuity(c0, o, pix_angle) == 3)
+        else if (o->valid && discontinuity(sh, c0, o, pix_angle) == 3)
             sh->ehard[e] = 2;
     }
     if (cov > 0)
@@ -1329,13 +1392,13 @@ static int prepare_view(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int 
                 const ssurf *a = &sh->sf[pix];
                 int r = 0;
                 if (x > 0)
-                    r = discontinuity(a, a - 1, pix_angle);
+                    r = discontinuity(sh, a, a - 1, pix_angle);
                 if (!r && x + 1 < w)
-                    r = discontinuity(a, a + 1, pix_angle);
+                    r = discontinuity(sh, a, a + 1, pix_angle);
                 if (!r && y > 0)
-                    r = discontinuity(a, a - w, pix_angle);
+                    r = discontinuity(sh, a, a - w, pix_angle);
                 if (!r && y + 1 < h)
-                    r = discontinuity(a, a + w, pix_angle);
+                    r = discontinuity(sh, a, a + w, pix_angle);
                 sh->eidx[pix] = (uint32_t)r;
             }
         size_t nedge = 0, why[5] = {0, 0, 0, 0, 0};
@@ -2378,7 +2441,7 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
         int need = 0, have = 0;
         for (int q = 0; ok && q <= sh->ne; q++) {
             const ssurf *c = q < sh->ne ? &sh->esf[e * (size_t)sh->ne + (size_t)q] : &sh->sf[pix];
-            (void)discontinuity_tx(o, c, pix_angle, &need);
+            (void)discontinuity_tx(sh->s, o, c, pix_angle, &need);
         }
         if (need) {
             point_texel(sh, &xhit[j], o);
@@ -2392,13 +2455,13 @@ static ssurf *extra_samples(gi_shade *sh, const gi_camera *cam, int w, int h, si
             continue;
         int reused = 0;
         const ssurf *c0 = &sh->sf[pix];
-        if (c0->valid && !discontinuous(o, c0, pix_angle)) {
+        if (c0->valid && !discontinuous(sh, o, c0, pix_angle)) {
             memcpy(o->texel, c0->texel, sizeof o->texel);
             reused = 1;
         }
         for (int q = 0; q < sh->ne && !reused; q++) {
             const ssurf *c = &sh->esf[e * (size_t)sh->ne + (size_t)q];
-            if (c->valid && !discontinuous(o, c, pix_angle)) {
+            if (c->valid && !discontinuous(sh, o, c, pix_angle)) {
                 memcpy(o->texel, c->texel, sizeof o->texel);
                 reused = 1;
             }
@@ -2866,7 +2929,8 @@ static int dcache_warm(gi_shade *sh, size_t np)
 static int glossy_neighbour(const ssurf *sf, const ssurf *o2, float pa)
 {
     return o2->valid && o2->material == sf->material &&
-           sf->ns[0] * o2->ns[0] + sf->ns[1] * o2->ns[1] + sf->ns[2] * o2->ns[2] >= 0.98f && !discontinuous(sf, o2, pa);
+           sf->ns[0] * o2->ns[0] + sf->ns[1] * o2->ns[1] + sf->ns[2] * o2->ns[2] >= 0.98f &&
+           !discontinuity_tx(NULL, sf, o2, pa, NULL);
 }
 
 /* ---- near field ------------------------------------------------------------
