@@ -3,6 +3,7 @@
 #include "gi_mem.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,7 +23,11 @@ typedef struct pyramid {
 
 struct gi_texfilter {
     const gi_scene *s;
-    pyramid *p; /* one per texture */
+    pyramid *p;   /* one per texture */
+    uint8_t *bnd; /* per triangle: bit e (uv0) or 3 + e (uv1) when its edge e
+                     (v_e to v_(e+1)%3) has no other triangle with the same
+                     positions and texture coordinates: an edge of its UV
+                     island (NULL: out of memory at build, none known) */
 };
 
 void gi_texfilter_free(gi_texfilter *f)
@@ -36,7 +41,117 @@ void gi_texfilter_free(gi_texfilter *f)
             free(f->p[t].pre[l]);
         }
     free(f->p);
+    free(f->bnd);
     free(f);
+}
+
+/* ---- UV-island edges --------------------------------------------------------
+ * A footprint's parallelogram lies in its triangle's plane and mapping; past an
+ * edge that no triangle continues with the same texture coordinates (the rim
+ * of a face, a seam of an atlas) the pixel sees something else, and the
+ * texture there is whatever the atlas holds beyond the island. */
+typedef struct edge_rec {
+    uint64_t h;
+    uint32_t tri;
+    uint8_t e;
+} edge_rec;
+
+/* an edge's endpoints (position and texture coordinates), in a canonical order */
+static void edge_key(const gi_scene *s, const float *uvs, uint32_t tri, int e, float k[10])
+{
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    uint32_t a = ix[e], b = ix[(e + 1) % 3];
+    float ka[5], kb[5];
+    for (int c = 0; c < 3; c++) {
+        ka[c] = s->positions[3 * (size_t)a + c];
+        kb[c] = s->positions[3 * (size_t)b + c];
+    }
+    for (int c = 0; c < 2; c++) {
+        ka[3 + c] = uvs[2 * (size_t)a + c];
+        kb[3 + c] = uvs[2 * (size_t)b + c];
+    }
+    int swap = memcmp(ka, kb, sizeof ka) > 0;
+    memcpy(k, swap ? kb : ka, sizeof ka);
+    memcpy(k + 5, swap ? ka : kb, sizeof ka);
+}
+
+static uint64_t edge_hash(const float k[10])
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (int i = 0; i < 10; i++) {
+        float v = k[i] == 0.0f ? 0.0f : k[i]; /* -0 and 0 alike */
+        uint32_t u;
+        memcpy(&u, &v, sizeof u);
+        h = (h ^ u) * 0x100000001b3ull;
+        h ^= h >> 29;
+    }
+    return h;
+}
+
+static int edge_cmp(const void *pa, const void *pb)
+{
+    const edge_rec *a = pa, *b = pb;
+    return a->h < b->h ? -1 : a->h > b->h;
+}
+
+static void float_key_zero(float k[10])
+{
+    for (int i = 0; i < 10; i++)
+        if (k[i] == 0.0f)
+            k[i] = 0.0f;
+}
+
+/* f->bnd for both texture-coordinate sets; left NULL when out of memory (no
+ * island edges known: footprints as before) */
+static void island_edges(gi_texfilter *f)
+{
+    const gi_scene *s = f->s;
+    size_t nt = s->num_triangles, ne = 3 * nt;
+    if (!nt || !s->num_textures)
+        return;
+    uint8_t *bnd = calloc(nt, 1);
+    edge_rec *r = gi_alloc_large(ne * sizeof *r);
+    if (!bnd || !r) {
+        free(bnd);
+        free(r);
+        return;
+    }
+    for (int set = 0; set < 2; set++) {
+        const float *uvs = set ? s->uv1 : s->uv0;
+        for (size_t t = 0; t < nt; t++)
+            for (int e = 0; e < 3; e++) {
+                float k[10];
+                edge_key(s, uvs, (uint32_t)t, e, k);
+                float_key_zero(k);
+                r[3 * t + (size_t)e] = (edge_rec){edge_hash(k), (uint32_t)t, (uint8_t)e};
+            }
+        qsort(r, ne, sizeof *r, edge_cmp);
+        for (size_t i = 0; i < ne;) {
+            size_t j = i + 1;
+            while (j < ne && r[j].h == r[i].h)
+                j++;
+            /* within a run of one hash: an edge whose key no other shares */
+            for (size_t a = i; a < j; a++) {
+                float ka[10];
+                edge_key(s, uvs, r[a].tri, r[a].e, ka);
+                float_key_zero(ka);
+                int shared = 0;
+                for (size_t b = i; b < j && !shared; b++) {
+                    if (b == a)
+                        continue;
+                    float kb[10];
+                    edge_key(s, uvs, r[b].tri, r[b].e, kb);
+                    float_key_zero(kb);
+                    shared = !memcmp(ka, kb, sizeof ka);
+                }
+                if (!shared)
+                    bnd[r[a].tri] |= (uint8_t)(1u << (3 * set + r[a].e));
+            }
+            i = j;
+        }
+    }
+    free(r);
+    f->bnd = bnd;
 }
 
 /* Next level: ceil(w/2) x ceil(h/2), each texel the mean of its (up to) 2 x 2
@@ -121,6 +236,7 @@ int gi_texfilter_new(const gi_scene *s, gi_texfilter **out, gi_status *st)
             p->pre[l] = pre;
         }
     }
+    island_edges(f);
     *out = f;
     return 0;
 }
@@ -603,6 +719,37 @@ void gi_texfilter_texel(const gi_texfilter *f, const gi_material *m, uint32_t tr
             BARY(gi_sub(q, p), c1, c2);
             for (int c = 0; c < 2; c++)
                 out[k][c] = (float)(c1 * (t1[c] - t0[c]) + c2 * (t2[c] - t0[c]));
+        }
+        /* cut at each edge of the triangle's UV island that it crosses:
+         * seen at a grazing angle, a sample's footprint on the plane runs far
+         * past the face it lies on, where the pixel sees something else. The
+         * part inside stays a parallelogram: its extent across the edge runs
+         * from the edge to where it ran, its centre moved in between. */
+        unsigned be = f->bnd ? (f->bnd[tri] >> (m->base_color_uv == 1 ? 3 : 0)) & 7u : 0u;
+        const float *tv[3] = {t0, t1, t2};
+        for (int e = 0; e < 3 && be; e++) {
+            if (!((be >> e) & 1u))
+                continue;
+            const float *ti = tv[e], *tj = tv[(e + 1) % 3], *tk = tv[(e + 2) % 3];
+            double ex = (double)tj[0] - ti[0], ey = (double)tj[1] - ti[1], len = hypot(ex, ey);
+            if (!(len > 0.0))
+                continue;
+            double nx = -ey / len, ny = ex / len; /* unit normal, turned inwards below */
+            if (nx * ((double)tk[0] - ti[0]) + ny * ((double)tk[1] - ti[1]) < 0.0) {
+                nx = -nx;
+                ny = -ny;
+            }
+            double dc = nx * ((double)uv[0] - ti[0]) + ny * ((double)uv[1] - ti[1]);
+            double an = nx * a[0] + ny * a[1], bn = nx * b[0] + ny * b[1], hh = 0.5 * (fabs(an) + fabs(bn));
+            if (!(hh > dc) || !(dc > -hh))
+                continue; /* inside, or (numerically) wholly outside: left as it is */
+            double sq = (hh + dc) / (2.0 * hh), shift = 0.5 * (hh - dc);
+            a[0] = (float)(a[0] - (1.0 - sq) * an * nx);
+            a[1] = (float)(a[1] - (1.0 - sq) * an * ny);
+            b[0] = (float)(b[0] - (1.0 - sq) * bn * nx);
+            b[1] = (float)(b[1] - (1.0 - sq) * bn * ny);
+            uv[0] = (float)(uv[0] + shift * nx);
+            uv[1] = (float)(uv[1] + shift * ny);
         }
     }
 #undef BARY
