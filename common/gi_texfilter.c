@@ -130,8 +130,10 @@ static void island_edges(gi_texfilter *f)
             size_t j = i + 1;
             while (j < ne && r[j].h == r[i].h)
                 j++;
-            /* within a run of one hash: an edge whose key no other shares */
-            for (size_t a = i; a < j; a++) {
+            /* within a run of one hash: an edge whose key no other shares
+             * (a long run, e.g. many copies of one edge, is taken as shared
+             * rather than compared pair by pair) */
+            for (size_t a = i; a < j && j - i <= 64; a++) {
                 float ka[10];
                 edge_key(s, uvs, r[a].tri, r[a].e, ka);
                 float_key_zero(ka);

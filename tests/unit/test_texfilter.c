@@ -1,7 +1,8 @@
 /* test_texfilter.c - footprint-filtered textures: pyramid levels keep the mean,
  * box averages match the analytic means of checkerboards, stripes and ramps,
  * the minor axis of a thin footprint is not blurred, and the footprint found
- * from camera rays on a quad is the one geometry predicts. */
+ * from camera rays on a quad is the one geometry predicts, and is cut at the
+ * rim of the quad's UV island. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -320,6 +321,46 @@ static void test_texel_from_camera(void **state)
     gi_scene_free(s);
 }
 
+/* A footprint that crosses the rim of its face's UV island is cut there: the
+ * quad's left edge (x = -1, u = 0) has no neighbour, and a pixel of 8 texels
+ * centred 0.64 texel inside it averages the ramp over u in [0, 4.64 texels],
+ * not over the texture's far end that a repeat wraps in (~0.43). Its
+ * diagonal is shared: a footprint across it is not cut. */
+static void test_cut_at_island_rim(void **state)
+{
+    (void)state;
+    gi_scene *s = make_scene(64, 64, v_ramp_u, GI_WRAP_REPEAT, 1);
+    gi_texfilter *f = filter_of(s);
+    const int w = 100, h = 100;
+    const float fov = 0.5f, pixel_m = 8.0f * 2.0f / 64.0f;
+    const float D = pixel_m * (float)h / (2.0f * tanf(0.5f * fov));
+    const float at[2][2] = {{-0.98f, 0.1f}, {0.02f, 0.0f}}; /* by the rim; on the diagonal */
+    for (int i = 0; i < 2; i++) {
+        gi_camera cam = {.position = {at[i][0], at[i][1], D}, .forward = {0, 0, -1}, .up = {0, 1, 0}, .yfov = fov};
+        gi_vec3 o, d, dx, dy;
+        gi_camera_ray(&cam, w, h, 50.0f, 50.0f, &o, &d);
+        gi_camera_ray(&cam, w, h, 51.0f, 50.0f, &o, &dx);
+        gi_camera_ray(&cam, w, h, 50.0f, 51.0f, &o, &dy);
+        float t = -o.z / d.z;
+        gi_vec3 p = gi_add(o, gi_scale(d, t));
+        uint32_t tri = (p.y - p.x <= 0.0f) ? 0 : 1;
+        float rgb[3];
+        gi_texfilter_texel(f, &s->materials[0], tri, o, p, dx, dy, rgb);
+        float u = (p.x + 1.0f) * 0.5f * 64.0f; /* in texels */
+        if (i == 0) {
+            /* the texel-constant ramp's mean over [0, u + 4] */
+            float hi = u + 4.0f, sum = 0.0f;
+            for (int k = 0; (float)k < hi; k++)
+                sum += ((float)k + 0.5f) / 64.0f * fminf(1.0f, hi - (float)k);
+            assert_float_equal(rgb[0], sum / hi, 0.005f);
+        } else {
+            assert_float_equal(rgb[0], u / 64.0f, 0.01f); /* uncut: the mean at the centre */
+        }
+    }
+    gi_texfilter_free(f);
+    gi_scene_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -331,6 +372,7 @@ int main(void)
         cmocka_unit_test(test_clamp_beyond_edge),
         cmocka_unit_test(test_texel_from_camera),
         cmocka_unit_test(test_infinite_footprint),
+        cmocka_unit_test(test_cut_at_island_rim),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
