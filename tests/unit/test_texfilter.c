@@ -284,6 +284,24 @@ static void test_clamp_beyond_edge(void **state)
     gi_scene_free(s);
 }
 
+/* A camera at (x, y, D) looking down -z at the quad of make_scene, 100 x 100
+ * pixels of pixel_m metres at the quad (fov 0.5 rad): the ray through (c, c)
+ * and its neighbours one pixel right and down (directions dx, dy), its origin
+ * o and hit p; returns the quad's triangle at p (its diagonal runs from (-1,
+ * -1) to (1, 1)). */
+static uint32_t head_on(float x, float y, float pixel_m, float c, gi_vec3 *o, gi_vec3 *p, gi_vec3 *dx, gi_vec3 *dy)
+{
+    const int w = 100, h = 100;
+    const float fov = 0.5f, D = pixel_m * (float)h / (2.0f * tanf(0.5f * fov));
+    gi_camera cam = {.position = {x, y, D}, .forward = {0, 0, -1}, .up = {0, 1, 0}, .yfov = fov};
+    gi_vec3 d;
+    gi_camera_ray(&cam, w, h, c, c, o, &d);
+    gi_camera_ray(&cam, w, h, c + 1.0f, c, o, dx);
+    gi_camera_ray(&cam, w, h, c, c + 1.0f, o, dy);
+    *p = gi_add(*o, gi_scale(d, -o->z / d.z));
+    return (p->y - p->x <= 0.0f) ? 0 : 1;
+}
+
 /* The footprint from camera rays: a quad 2 m wide with a 512-texel checker,
  * seen head-on from distance D through a pixel that spans D * 2 tan(fov/2) / h
  * metres. Close (a quarter texel per pixel) the texel is (nearly) the point
@@ -293,22 +311,11 @@ static void test_texel_from_camera(void **state)
     (void)state;
     gi_scene *s = make_scene(512, 512, v_checker, GI_WRAP_REPEAT, 1);
     gi_texfilter *f = filter_of(s);
-    const int w = 100, h = 100;
-    const float fov = 0.5f;
     const float texel_m = 2.0f / 512.0f;
     const float per_pixel[2] = {0.25f, 8.0f};
     for (int i = 0; i < 2; i++) {
-        float pixel_m = per_pixel[i] * texel_m;
-        float D = pixel_m * (float)h / (2.0f * tanf(0.5f * fov));
-        gi_camera cam = {.position = {0.0013f, 0.0021f, D}, .forward = {0, 0, -1}, .up = {0, 1, 0}, .yfov = fov};
-        /* pixel (50, 50) centre and its neighbours one pixel right and down */
-        gi_vec3 o, d, dx, dy;
-        gi_camera_ray(&cam, w, h, 50.5f, 50.5f, &o, &d);
-        gi_camera_ray(&cam, w, h, 51.5f, 50.5f, &o, &dx);
-        gi_camera_ray(&cam, w, h, 50.5f, 51.5f, &o, &dy);
-        float t = -o.z / d.z;
-        gi_vec3 p = gi_add(o, gi_scale(d, t));
-        uint32_t tri = (p.y - p.x <= 0.0f) ? 0 : 1; /* diagonal from (-1,-1) to (1,1) */
+        gi_vec3 o, p, dx, dy;
+        uint32_t tri = head_on(0.0013f, 0.0021f, per_pixel[i] * texel_m, 50.5f, &o, &p, &dx, &dy);
         float rgb[3], point[4];
         gi_texfilter_texel(f, &s->materials[0], tri, o, p, dx, dy, rgb);
         gi_texture_sample(&s->textures[0], (p.x + 1.0f) * 0.5f, (1.0f - p.y) * 0.5f, point);
@@ -331,19 +338,10 @@ static void test_cut_at_island_rim(void **state)
     (void)state;
     gi_scene *s = make_scene(64, 64, v_ramp_u, GI_WRAP_REPEAT, 1);
     gi_texfilter *f = filter_of(s);
-    const int w = 100, h = 100;
-    const float fov = 0.5f, pixel_m = 8.0f * 2.0f / 64.0f;
-    const float D = pixel_m * (float)h / (2.0f * tanf(0.5f * fov));
     const float at[2][2] = {{-0.98f, 0.1f}, {0.02f, 0.0f}}; /* by the rim; on the diagonal */
     for (int i = 0; i < 2; i++) {
-        gi_camera cam = {.position = {at[i][0], at[i][1], D}, .forward = {0, 0, -1}, .up = {0, 1, 0}, .yfov = fov};
-        gi_vec3 o, d, dx, dy;
-        gi_camera_ray(&cam, w, h, 50.0f, 50.0f, &o, &d);
-        gi_camera_ray(&cam, w, h, 51.0f, 50.0f, &o, &dx);
-        gi_camera_ray(&cam, w, h, 50.0f, 51.0f, &o, &dy);
-        float t = -o.z / d.z;
-        gi_vec3 p = gi_add(o, gi_scale(d, t));
-        uint32_t tri = (p.y - p.x <= 0.0f) ? 0 : 1;
+        gi_vec3 o, p, dx, dy;
+        uint32_t tri = head_on(at[i][0], at[i][1], 8.0f * 2.0f / 64.0f, 50.0f, &o, &p, &dx, &dy);
         float rgb[3];
         gi_texfilter_texel(f, &s->materials[0], tri, o, p, dx, dy, rgb);
         float u = (p.x + 1.0f) * 0.5f * 64.0f; /* in texels */
