@@ -941,7 +941,6 @@ void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
     }
     if (!ns)
         return;
-    float w = (float)GI_PI / (float)(h->num_rays && h->num_gpoints ? h->num_rays / h->num_gpoints : 1);
 #pragma omp parallel for schedule(dynamic, 256) num_threads(r->threads)
     for (size_t q = 0; q < ns; q++) {
         const uint32_t i = r->gather_list[q];
@@ -993,24 +992,29 @@ void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
             /* the cosine-weighted first moment M1 = (1/N) sum L w of the
              * incident radiance; for L(w) = a + b.w its part tangential to the
              * point's normal is b_t / 4, so T = 4 (M1 - (M1.n) n). Split rays
-             * (GSPL) have no directions and are left out of it */
-            double m[3][3] = {{0}};
-            for (uint32_t j = gp->first_pair; j < gp->first_pair + gp->num_pairs; j++) {
-                uint32_t k = h->pair_key[j];
-                double sc = (double)h->pair_count[j] * h->key_scale[k] / 127.0;
-                const int8_t *d = h->pair_dir + 3 * (size_t)j;
-                for (int c = 0; c < 3; c++) {
-                    double L = sc * r->key_flux[3 * (size_t)k + c];
-                    m[c][0] += L * d[0];
-                    m[c][1] += L * d[1];
-                    m[c][2] += L * d[2];
-                }
+             * (GSPL) have no directions and are left out of it. In float
+             * lanes like the sum above, from the same per-key radiance
+             * (key_rad = L pi / N): in double from the fluxes it was half of
+             * a light move's final gather once a material was glossy */
+            v4f m0 = {0, 0, 0, 0}, m1 = {0, 0, 0, 0}, m2 = {0, 0, 0, 0};
+            const uint32_t *pk = h->pair_key + gp->first_pair;
+            const uint16_t *pc = h->pair_count + gp->first_pair;
+            const int8_t *d = h->pair_dir + 3 * (size_t)gp->first_pair;
+            for (uint32_t j = 0; j < gp->num_pairs; j++) {
+                v4f l;
+                memcpy(&l, r->key_rad + 4 * (size_t)pk[j], sizeof l);
+                l *= (float)pc[j];
+                m0 += l * (float)d[3 * j];
+                m1 += l * (float)d[3 * j + 1];
+                m2 += l * (float)d[3 * j + 2];
             }
-            double inv = 4.0 * w / GI_PI;
+            /* key_rad's pi / N and the directions' 127 out, the 4 in */
+            const double inv = 4.0 / (127.0 * GI_PI);
             for (int c = 0; c < 3; c++) {
-                double dn = m[c][0] * gp->nrm[0] + m[c][1] * gp->nrm[1] + m[c][2] * gp->nrm[2];
+                double mc[3] = {m0[c], m1[c], m2[c]};
+                double dn = mc[0] * gp->nrm[0] + mc[1] * gp->nrm[1] + mc[2] * gp->nrm[2];
                 for (int x = 0; x < 3; x++)
-                    r->gp_t[9 * (size_t)i + 3 * c + x] = (float)((m[c][x] - dn * gp->nrm[x]) * inv);
+                    r->gp_t[9 * (size_t)i + 3 * c + x] = (float)((mc[x] - dn * gp->nrm[x]) * inv);
             }
         }
     }
