@@ -3810,9 +3810,10 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
          * 0.94-1.09 s -> 0.29-0.30 s; against 144-ray gathers at every
          * pixel (320 x 240), nrmse 0.012 -> 0.017 (metallic 1, roughness
          * 0.3) and 0.011 -> 0.014 (0.15). 64 rays: 0.016 and 0.010 for
-         * 0.47-0.48 s. */
+         * 0.47-0.48 s. With several samples a pixel (--ss) every sample
+         * gathers; the window averages the samples of one jitter. */
         const int S1 = S == 1;
-        const int R = S1 ? GI_SHADE_GLOSSY_WIN : 0;
+        const int R = GI_SHADE_GLOSSY_WIN;
         const size_t gs = o->glossy_stride >= 1 ? (size_t)o->glossy_stride : 2;
         const float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
         uint8_t *gself = NULL;
@@ -3890,13 +3891,19 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             if (gather && sh->gdo[i]) {
                 gi_vec3 g = gi_v3(0, 0, 0);
                 int cnt = 0;
-                int x = S1 ? (int)(i % (size_t)w) : 0, y = S1 ? (int)(i / (size_t)w) : 0;
+                /* with several samples a pixel (--ss) every sample
+                 * gathers, and the window runs over the samples of the same
+                 * jitter (k) in the pixels around (it read x = y = 0 then:
+                 * every sample took sample 0's term, and a metal floor at
+                 * --ss 2 reflected nothing) */
+                const size_t k = i / np, pix = i % np;
+                int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
                 for (int dy = -R; dy <= R; dy++)
                     for (int dx = -R; dx <= R; dx++) {
                         int xx = x + dx, yy = y + dy;
                         if (xx < 0 || yy < 0 || xx >= w || yy >= h)
                             continue;
-                        size_t j = (size_t)yy * (size_t)w + (size_t)xx;
+                        size_t j = k * np + (size_t)yy * (size_t)w + (size_t)xx;
                         if (!(sh->gdo[j] == 1 || (gself && gself[j])) ||
                             ((dx || dy) && !glossy_neighbour(sf, &sh->sf[j], pa)))
                             continue;
