@@ -52,3 +52,15 @@ skip_under_sanitizers() {
     finish
   fi
 }
+
+# direct_vs_reference SCENE SCRIPT FRAME SPP: gi-precompute (100 k photons) and gi-hvds of
+# SCENE, the relight's direct light of FRAME (--only direct) and the path tracer's
+# (--max-bounces 0, SPP samples a pixel); sets nrmse to the first's error against the second.
+direct_vs_reference() {
+  expect_success "precompute" gi-precompute -q "$1" -o "$TMP/d.gip" --photons 100000
+  expect_success "hvds" gi-hvds -q "$1" "$TMP/d.gip" -o "$TMP/d.gih"
+  expect_success "relight, direct light" gi-relight -q "$1" "$TMP/d.gip" "$TMP/d.gih" "$2" -o "$TMP/dout" --only direct
+  expect_success "reference, direct light, $4 spp" gi-compare render -q "$1" "$2" --frame "$3" --spp "$4" \
+    --max-bounces 0 -o "$TMP/dref.exr"
+  nrmse=$(gi-compare diff "$TMP/dout/$3.exr" "$TMP/dref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
+}

@@ -16,11 +16,7 @@ camera position 2 2 0.3 target 0 1 0 up 0 1 0 fov 50
 light sun directional direction -0.15 -1 0.05 illuminance 1000
 frame ledge
 SCRIPT
-expect_success "precompute" gi-precompute -q "$S" -o "$TMP/t.gip" --photons 100000
-expect_success "hvds" gi-hvds -q "$S" "$TMP/t.gip" -o "$TMP/t.gih"
-expect_success "relight, direct light" gi-relight -q "$S" "$TMP/t.gip" "$TMP/t.gih" "$TMP/v.script" -o "$TMP/out" --only direct
-expect_success "reference, direct light, 512 spp" gi-compare render -q "$S" "$TMP/v.script" --frame ledge --spp 512 \
-  --max-bounces 0 -o "$TMP/ref.exr"
-e=$(gi-compare diff "$TMP/out/ledge.exr" "$TMP/ref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
+direct_vs_reference "$S" "$TMP/v.script" ledge 512
+e=$nrmse
 check "direct light within nrmse 0.09 of the reference ($e)" awk -v a="$e" 'BEGIN { exit !(a != "" && a + 0 < 0.09) }'
 finish
