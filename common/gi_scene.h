@@ -53,6 +53,14 @@ typedef struct gi_material {
     int double_sided;
 } gi_material;
 
+/* The largest light strength (cd, lux, nits), colour factor or emission the
+ * loaders and scripts accept. The tools keep radiance in 32-bit floats: a
+ * point light of 1e38 cd overflowed a Cornell-box frame to infinity in 189 of
+ * its 256 pixels, 1e30 cd stayed finite; the brightest real sources are
+ * ~1e10 cd, so 1e15 refuses nothing a design needs and leaves 1e23 of room
+ * for inverse squares and sums. */
+#define GI_SCENE_MAX_STRENGTH 1e15
+
 enum { GI_LIGHT_POINT = 0, GI_LIGHT_SPOT = 1, GI_LIGHT_DIRECTIONAL = 2, GI_LIGHT_AREA = 3,
        /* emissive surfaces (gi_emit.h): made by gi-relight, never read from a file */
        GI_LIGHT_MESH = 4 };

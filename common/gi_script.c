@@ -415,7 +415,7 @@ static int name_at(parser *p, size_t i, const char *what, const char *after)
 }
 
 /* Value checks applied per number as it is read. */
-enum { CK_ANY, CK_NONNEG, CK_UNIT01, CK_NONZERO3, CK_INNER, CK_OUTER, CK_FOV, CK_POSITIVE };
+enum { CK_ANY, CK_NONNEG, CK_UNIT01, CK_NONZERO3, CK_INNER, CK_OUTER, CK_FOV, CK_POSITIVE, CK_STRENGTH };
 
 static int check_values(parser *p, size_t i, const char *kw, int n, int ck, const double *v)
 {
@@ -430,6 +430,9 @@ static int check_values(parser *p, size_t i, const char *kw, int n, int ck, cons
         case CK_OUTER: bad = (x <= 0 || x > 90) ? "greater than 0 and at most 90 degrees" : NULL; break;
         case CK_FOV: bad = (x <= 0 || x >= 180) ? "between 0 and 180 degrees" : NULL; break;
         case CK_POSITIVE: bad = x <= 0 ? "> 0" : NULL; break;
+        case CK_STRENGTH:
+            bad = x < 0 ? ">= 0" : (x > GI_SCENE_MAX_STRENGTH ? "at most 1e15 (beyond the range of the images' floats)" : NULL);
+            break;
         default: break;
         }
         if (bad)
@@ -603,8 +606,8 @@ enum { L_POSITION, L_CENTER, L_DIRECTION, L_U, L_V, L_INTENSITY, L_ILLUMINANCE, 
        L_COLOR, L_INNER, L_OUTER, L_RANGE, L_N };
 static const prop light_props[L_N] = {
     {"position", 3, CK_ANY},      {"center", 3, CK_ANY},      {"direction", 3, CK_NONZERO3},
-    {"u", 3, CK_NONZERO3},        {"v", 3, CK_NONZERO3},      {"intensity", 1, CK_NONNEG},
-    {"illuminance", 1, CK_NONNEG}, {"luminance", 1, CK_NONNEG}, {"color", 3, CK_NONNEG},
+    {"u", 3, CK_NONZERO3},        {"v", 3, CK_NONZERO3},      {"intensity", 1, CK_STRENGTH},
+    {"illuminance", 1, CK_STRENGTH}, {"luminance", 1, CK_STRENGTH}, {"color", 3, CK_STRENGTH},
     {"inner", 1, CK_INNER},       {"outer", 1, CK_OUTER},     {"range", 1, CK_NONNEG},
 };
 #define B(x) (1u << (x))
@@ -735,7 +738,7 @@ static int parse_light(parser *p)
 enum { MP_BASECOLOR, MP_ROUGHNESS, MP_METALLIC, MP_EMISSION, MP_N };
 static const prop material_props[MP_N] = {
     {"basecolor", 3, CK_UNIT01}, {"roughness", 1, CK_UNIT01},
-    {"metallic", 1, CK_UNIT01},  {"emission", 3, CK_NONNEG},
+    {"metallic", 1, CK_UNIT01},  {"emission", 3, CK_STRENGTH},
 };
 #define MATERIAL_LIST "basecolor, roughness, metallic, emission"
 

@@ -792,12 +792,16 @@ void Loader::validate()
         if (!mt.emissiveFactor.empty() &&
             (mt.emissiveFactor.size() != 3 || !all_finite(mt.emissiveFactor)))
             fail(place, "emissiveFactor must be 3 finite numbers");
-        double es;
+        double es = 1.0;
         if (value_number(ext_object(mt.extensions, "KHR_materials_emissive_strength"),
                          "emissiveStrength", &es) &&
             !(std::isfinite(es) && es >= 0.0))
             fail(place, "KHR_materials_emissive_strength.emissiveStrength %g is not a finite "
                         "non-negative number", es);
+        for (double c : mt.emissiveFactor)
+            if (c < 0.0 || c * es > GI_SCENE_MAX_STRENGTH)
+                fail(place, "emission %g (emissiveFactor times emissiveStrength) must be in 0..%g", c * es,
+                     GI_SCENE_MAX_STRENGTH);
     }
 
     // cameras and lights
@@ -825,8 +829,11 @@ void Loader::validate()
             fail(place, "unknown light type '%s'", l.type.c_str());
         if (!l.color.empty() && (l.color.size() != 3 || !all_finite(l.color)))
             fail(place, "color must be 3 finite numbers");
-        if (!(std::isfinite(l.intensity) && l.intensity >= 0.0))
-            fail(place, "intensity %g must be a finite non-negative number", l.intensity);
+        for (double c : l.color)
+            if (c < 0.0 || c > GI_SCENE_MAX_STRENGTH)
+                fail(place, "color %g must be in 0..%g", c, GI_SCENE_MAX_STRENGTH);
+        if (!(std::isfinite(l.intensity) && l.intensity >= 0.0 && l.intensity <= GI_SCENE_MAX_STRENGTH))
+            fail(place, "intensity %g must be a finite number in 0..%g", l.intensity, GI_SCENE_MAX_STRENGTH);
         if (!(std::isfinite(l.range) && l.range >= 0.0))
             fail(place, "range %g must be non-negative", l.range);
         if (l.type == "spot") {

@@ -972,6 +972,18 @@ static void test_malformed_files(void **state)
                         "'extensions':{'KHR_lights_punctual':{'lights':[{'type':'spot','spot':"
                         "{'innerConeAngle':1.0,'outerConeAngle':0.5}}]}},'materials'",
                         "lights[0]: spot cone angles");
+    /* strengths beyond what the images' floats hold, and a negative colour */
+    expect_fail_variant("bright_light.gltf", "'materials'",
+                        "'extensions':{'KHR_lights_punctual':{'lights':[{'type':'point','intensity':1e38}]}},'materials'",
+                        "lights[0]: intensity 1e+38 must be a finite number in 0..1e+15");
+    expect_fail_variant("neg_colour.gltf", "'materials'",
+                        "'extensions':{'KHR_lights_punctual':{'lights':[{'type':'point','intensity':1,"
+                        "'color':[1,-0.5,1]}]}},'materials'",
+                        "lights[0]: color -0.5 must be in 0..1e+15");
+    expect_fail_variant("bright_emission.gltf", "'materials':[{'name':'mat'}]",
+                        "'materials':[{'name':'mat','emissiveFactor':[1,1,0.5],"
+                        "'extensions':{'KHR_materials_emissive_strength':{'emissiveStrength':1e16}}}]",
+                        "emission 1e+16 (emissiveFactor times emissiveStrength) must be in 0..1e+15");
     expect_fail_variant("required_ext.gltf", "'materials'", "'extensionsUsed':['KHR_draco_mesh_compression'],"
                         "'extensionsRequired':['KHR_draco_mesh_compression'],'materials'",
                         "KHR_draco_mesh_compression");

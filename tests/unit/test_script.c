@@ -719,6 +719,19 @@ static void test_parse_errors(void **state)
          "variants.script:1:42: expected 'intensity' only once, got it again"},
         {"light k point position 0 0 0 intensity -2\nframe a\n",
          "variants.script:1:40: expected 'intensity' >= 0, got '-2'"},
+        /* a strength the images' floats cannot hold (1e38 cd made infinite pixels) */
+        {"light k point position 0 0 0 intensity 2e15\nframe a\n",
+         "variants.script:1:40: expected 'intensity' at most 1e15 (beyond the range of the images' floats), "
+         "got '2e15'"},
+        {"light sun directional direction 0 -1 0 illuminance 1e20\nframe a\n",
+         "variants.script:1:52: expected 'illuminance' at most 1e15 (beyond the range of the images' floats), "
+         "got '1e20'"},
+        {"light k point position 0 0 0 intensity 1 color 1 1e16 1\nframe a\n",
+         "variants.script:1:50: expected 'color' at most 1e15 (beyond the range of the images' floats), "
+         "got '1e16'"},
+        {"material Floor emission 3e15 0 0\nframe a\n",
+         "variants.script:1:25: expected 'emission' at most 1e15 (beyond the range of the images' floats), "
+         "got '3e15'"},
         {"light p area center 0 0 0 u 1 0 0 v 2 0 0 luminance 1\nframe a\n",
          "variants.script:1:37: expected 'v' not parallel to 'u', got 2 0 0"},
         {"frame a\nresolution 0 480\nframe b\n",
