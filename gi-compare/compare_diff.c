@@ -13,6 +13,7 @@
 #include "gi_exit.h"
 #include "gi_image.h"
 #include "gi_log.h"
+#include "gi_opt.h"
 #include "gi_math.h"
 #include "gi_status.h"
 
@@ -126,6 +127,8 @@ static int diff_parse(int argc, char **argv, diff_opts *o)
     if (o->error_image && (!strcmp(o->error_image, o->a_path) ||
                            !strcmp(o->error_image, o->ref_path)))
         return diff_usage("--error-image '%s' would overwrite an input", o->error_image);
+    if (o->error_image)
+        gi_opt_check_output(o->error_image);
     return -1;
 }
 

@@ -138,6 +138,7 @@ int compare_render_main(int argc, char **argv)
         gi_usage_error("expected SCENE [SCRIPT], got %d arguments", npos);
     if (!out)
         gi_usage_error("missing -o OUT.exr");
+    gi_opt_check_output(out); /* before the render, which can take hours */
     j.scene_path = argv[optind];
     j.script_path = npos == 2 ? argv[optind + 1] : NULL;
     po.progress = gi_log_verbosity() >= 0;

@@ -333,6 +333,11 @@ int main(int argc, char **argv)
         rc = gi_hvds_read(gih_path, s, fp, gip->num_photons, &h, &st);
     if (!rc && mkdir(outdir, 0777) && errno != EEXIST)
         rc = gi_status_errno(&st, GI_EXIT_SYSTEM, "%s: cannot create the output directory", outdir);
+    struct stat ost;
+    if (!rc && stat(outdir, &ost))
+        rc = gi_status_errno(&st, GI_EXIT_SYSTEM, "%s: cannot read the output directory", outdir);
+    else if (!rc && !S_ISDIR(ost.st_mode))
+        rc = gi_status_set(&st, GI_EXIT_USAGE, "%s: expected an output directory, got a file", outdir);
     if (!rc)
         rc = gi_rt_new(s, &rt, &st);
     if (!rc)

@@ -111,7 +111,7 @@ int write_via_temp(const char *path, const char *format, const OIIO::ImageSpec &
         std::string msg = one_line(out->geterror());
         out.reset();
         unlink(tmp.c_str());
-        if (err)
+        if (err && msg.find(std::strerror(err)) == std::string::npos) /* (this OIIO often says it) */
             return gi_status_set(st, GI_EXIT_SYSTEM, "%s: cannot create '%s': %s (%s)", path,
                                  tmp.c_str(), msg.c_str(), std::strerror(err));
         return gi_status_set(st, GI_EXIT_SYSTEM, "%s: cannot create '%s': %s", path, tmp.c_str(),

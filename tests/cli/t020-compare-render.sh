@@ -182,6 +182,7 @@ check "no output was written by any refused command" test ! -e "$TMP/x.exr"
 expect_exit 4 "output into a missing directory exits 4" \
   "$GC" render "$TMP/cornell.gltf" -o "$TMP/no/such/dir/x.exr" "${SIZE[@]}"
 expect_stderr "no/such/dir/x\.exr" "the output path is named"
+expect_stderr "cannot write into '.*no/such/dir'" "refused before the render (its directory checked first)"
 check "no partial output or temporary file left" no_tmp_files
 check "the missing directory was not created" test ! -e "$TMP/no"
 

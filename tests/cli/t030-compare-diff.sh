@@ -113,6 +113,9 @@ expect_success "error image of a narrow image" "$GC" diff -e "$TMP/tiny.png" "$T
 check "narrow image: map widened to fit the legend" [ "$("$MK" -i "$TMP/tiny.png")" = "160 60 3" ]
 expect_exit 4 "error image into a missing directory exits 4" \
   "$GC" diff -e "$TMP/no/such/err.png" "$TMP/spot.exr" "$TMP/one.exr"
+expect_stderr "cannot write into '.*no/such'" "refused before the comparison (its directory checked first)"
+expect_stdout_empty() { if [ -s "$TMP/stdout" ]; then not_ok "$1 (stdout not empty)"; else ok "$1"; fi; }
+expect_stdout_empty "no error lines printed for a comparison that could not write its map"
 check "no temporary file left behind" [ -z "$(ls -A "$TMP" | grep '\.tmp\.')" ]
 expect_exit 2 "error image over an input is refused" "$GC" diff -e "$TMP/one.exr" "$TMP/spot.exr" "$TMP/one.exr"
 

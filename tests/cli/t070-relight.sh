@@ -237,6 +237,10 @@ expect_exit 4 "a missing script (exit 4)" "$GR" "${IN[@]}" "$TMP/none.script" -o
 expect_stderr "none\.script: cannot open" "the missing script is named"
 expect_exit 4 "an OUTDIR whose parent is missing (exit 4)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/no/such"
 expect_stderr "no/such: cannot create the output directory" "the output directory is named"
+printf 'not a directory\n' > "$TMP/afile"
+expect_exit 2 "an OUTDIR that is a file (exit 2, before any rendering)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$TMP/afile"
+expect_stderr "afile: expected an output directory, got a file" "the file is named"
+[ "$(cat "$TMP/afile")" = "not a directory" ] && ok "the file is left as it was" || not_ok "the file was changed"
 
 expect_exit 2 "an unknown option (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script" -o "$R" --bogus
 expect_exit 2 "missing -o (exit 2)" "$GR" "${IN[@]}" "$TMP/v.script"
