@@ -103,6 +103,8 @@ typedef struct gi_hvds {
     uint64_t num_rays;       /* gathering rays traced (= num_gpoints * gather_rays) */
     uint64_t rays_descended; /* rays moved to finer cells by the occlusion check */
     uint64_t rays_lifted;    /* rays moved to coarser keys by key_photons (build only, not stored) */
+    uint64_t rays_kept_occ;  /* of rays_descended, those that found no key of their bin below and kept the
+                                key they left, which held fewer than key_photons photons (build only) */
 } gi_hvds;
 
 int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_t gip_fingerprint,

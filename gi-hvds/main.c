@@ -145,10 +145,11 @@ int main(int argc, char **argv)
         if (h->split_key)
             snprintf(split, sizeof split, " and %u split-ray pairs", h->num_split);
         gi_info("%u gathering points (%s), %llu gathering rays -> %u (key, count) pairs%s, %llu moved to finer "
-                "cells by the occlusion check, %llu to coarser keys for --key-photons %d",
+                "cells by the occlusion check (%llu of them back, finding no photon there), %llu to coarser keys "
+                "for --key-photons %d",
                 h->num_gpoints, h->opts.gather == GI_GATHER_KMEANS ? "k-means" : "rejection",
                 (unsigned long long)h->num_rays, h->num_pairs, split, (unsigned long long)h->rays_descended,
-                (unsigned long long)h->rays_lifted, h->opts.key_photons);
+                (unsigned long long)h->rays_kept_occ, (unsigned long long)h->rays_lifted, h->opts.key_photons);
         gi_info("octree: %u nodes, depth %u, leaves per level %s; %u keys", h->num_nodes, h->depth, levels,
                 h->num_keys);
         gi_info("%s: %lld bytes; per photon %.2f bytes (key) + %.2f (.gip compact, read every frame); per gathering ray "
