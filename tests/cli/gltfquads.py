@@ -1,7 +1,17 @@
 """gltfquads.py: write_quads(path, quads), the glTF of the test scenes made of quads (mkslit.py,
-mkledge.py): one mesh of one white diffuse material, each quad's corners counter-clockwise seen
+mkledge.py, mkcolumns.py, mkfins.py), and box_quads, a box's five faces: one mesh of one white diffuse material, each quad's corners counter-clockwise seen
 from the side it faces (no normals: flat faces)."""
 import base64, json, struct
+
+
+def box_quads(x0, z0, x1, z1, h):
+    """The four sides and the top of a box standing on y = 0 over [x0, x1] x [z0, z1], h tall
+    (no bottom face: the floor runs on under it)."""
+    return [[(x0, 0, z0), (x0, 0, z1), (x0, h, z1), (x0, h, z0)],  # -x
+            [(x1, 0, z0), (x1, h, z0), (x1, h, z1), (x1, 0, z1)],  # +x
+            [(x0, 0, z0), (x0, h, z0), (x1, h, z0), (x1, 0, z0)],  # -z
+            [(x0, 0, z1), (x1, 0, z1), (x1, h, z1), (x0, h, z1)],  # +z
+            [(x0, h, z0), (x0, h, z1), (x1, h, z1), (x1, h, z0)]]  # top, +y
 
 
 def write_quads(path, quads):

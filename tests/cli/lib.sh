@@ -53,6 +53,19 @@ skip_under_sanitizers() {
   fi
 }
 
+# gpoints_vs_sensors SCENE SCRIPT GPOINTS: every 16th gathering point of a gi-relight --gpoints
+# file against the path tracer's indirect illuminance there (gi-compare sensors --min-bounces 1,
+# 1024 spp); sets ratio to the sum of the first over the sum of the second ("" with 1000
+# points or fewer).
+gpoints_vs_sensors() {
+  awk '!/^#/ && NR % 16 == 0 { print $1, $2, $3, $4, $5, $6 }' "$3" >"$TMP/p.pts"
+  awk '!/^#/ && NR % 16 == 0 { print $8 }' "$3" >"$TMP/p.e"
+  expect_success "sensors at the points, 1024 spp" gi-compare sensors -q "$1" "$2" --points "$TMP/p.pts" \
+    --spp 1024 --min-bounces 1
+  cp "$TMP/stdout" "$TMP/p.sens"
+  ratio=$(paste "$TMP/p.e" "$TMP/p.sens" | awk '{ a += $1; b += $2 } END { if (NR > 1000 && b > 0) printf "%.4f", a / b }')
+}
+
 # direct_vs_reference SCENE SCRIPT FRAME SPP: gi-precompute (100 k photons) and gi-hvds of
 # SCENE, the relight's direct light of FRAME (--only direct) and the path tracer's
 # (--max-bounces 0, SPP samples a pixel); sets nrmse to the first's error against the second.

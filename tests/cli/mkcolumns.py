@@ -5,7 +5,7 @@ under the columns, which have no bottom face: 7.2 m2 of floor inside other geome
 Sponza's columns. All surfaces are one white diffuse material."""
 import os, sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gltfquads import write_quads
+from gltfquads import box_quads, write_quads
 
 if len(sys.argv) != 2:
     sys.exit(__doc__.splitlines()[0])
@@ -16,10 +16,5 @@ quads = [[(0, 0, 0), (0, 0, L), (L, 0, L), (L, 0, 0)],  # floor, +y
          [(0, 0, 0), (0, H, 0), (0, H, L), (0, 0, L)],  # wall x = 0, +x
          [(L, 0, 0), (L, 0, L), (L, H, L), (L, H, 0)]]  # wall x = L, -x
 for x0, z0 in [(2, 2), (2, 6), (6, 2), (6, 6), (4, 4)]:
-    x1, z1, h = x0 + 1.2, z0 + 1.2, 3
-    quads += [[(x0, 0, z0), (x0, 0, z1), (x0, h, z1), (x0, h, z0)],  # -x
-              [(x1, 0, z0), (x1, h, z0), (x1, h, z1), (x1, 0, z1)],  # +x
-              [(x0, 0, z0), (x0, h, z0), (x1, h, z0), (x1, 0, z0)],  # -z
-              [(x0, 0, z1), (x1, 0, z1), (x1, h, z1), (x0, h, z1)],  # +z
-              [(x0, h, z0), (x0, h, z1), (x1, h, z1), (x1, h, z0)]]  # top, +y
+    quads += box_quads(x0, z0, x0 + 1.2, z0 + 1.2, 3)
 write_quads(sys.argv[1], quads)

@@ -5,7 +5,7 @@ their tops and sides (no bottom face). White diffuse. Cells that hold floor on b
 fin are common here, as along Sponza's mouldings and column feet."""
 import os, sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gltfquads import write_quads
+from gltfquads import box_quads, write_quads
 
 if len(sys.argv) != 2:
     sys.exit(__doc__.splitlines()[0])
@@ -13,10 +13,5 @@ L = 4.0
 quads = [[(0, 0, 0), (0, 0, L), (L, 0, L), (L, 0, 0)]]  # floor, +y
 for i in range(11):
     x0 = 0.485 + 0.3 * i
-    x1, z0, z1, h = x0 + 0.02, 0.2, 3.8, 0.25
-    quads += [[(x0, 0, z0), (x0, 0, z1), (x0, h, z1), (x0, h, z0)],  # -x
-              [(x1, 0, z0), (x1, h, z0), (x1, h, z1), (x1, 0, z1)],  # +x
-              [(x0, 0, z0), (x0, h, z0), (x1, h, z0), (x1, 0, z0)],  # -z
-              [(x0, 0, z1), (x1, 0, z1), (x1, h, z1), (x0, h, z1)],  # +z
-              [(x0, h, z0), (x0, h, z1), (x1, h, z1), (x1, h, z0)]]  # top, +y
+    quads += box_quads(x0, 0.2, x0 + 0.02, 3.8, 0.25)
 write_quads(sys.argv[1], quads)

@@ -22,12 +22,8 @@ n=$(sed -n 's/.*entry points: \([0-9]*\) of \([0-9]*\) inside other geometry.*/\
 check "about 2% of the entry points found hidden (${n:-none})" \
   awk -v n="$n" 'BEGIN { split(n, a, " "); exit !(a[2] > 0 && a[1] / a[2] > 0.01 && a[1] / a[2] < 0.04) }'
 expect_success "relight" gi-relight -q "$S" "$TMP/c.gip" "$TMP/c.gih" "$TMP/v.script" -o "$TMP/out" --gpoints
-awk '!/^#/ && NR % 16 == 0 { print $1, $2, $3, $4, $5, $6 }' "$TMP/out/sun.gpoints" >"$TMP/p.pts"
-awk '!/^#/ && NR % 16 == 0 { print $8 }' "$TMP/out/sun.gpoints" >"$TMP/p.e"
-expect_success "sensors at the points, 1024 spp" gi-compare sensors -q "$S" "$TMP/v.script" --points "$TMP/p.pts" \
-  --spp 1024 --min-bounces 1
-cp "$TMP/stdout" "$TMP/p.sens"
-r=$(paste "$TMP/p.e" "$TMP/p.sens" | awk '{ a += $1; b += $2 } END { if (NR > 1000 && b > 0) printf "%.4f", a / b }')
+gpoints_vs_sensors "$S" "$TMP/v.script" "$TMP/out/sun.gpoints"
+r=$ratio
 check "the points' indirect light sums to within 0.65% of the path tracer's (ratio ${r:-none})" \
   awk -v r="$r" 'BEGIN { exit !(r != "" && r > 0.9935 && r < 1.0065) }'
 finish

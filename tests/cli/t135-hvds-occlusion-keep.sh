@@ -28,12 +28,8 @@ expect_success "hvds --key-photons 0" gi-hvds "$S" "$TMP/f.gip" -o "$TMP/f0.gih"
 kept0=$(sed -n 's/.*occlusion check (\([0-9]*\) of them back, finding no photon there).*/\1/p' "$TMP/stderr")
 check "with --key-photons 0 none does (${kept0:-none})" [ "$kept0" = 0 ]
 expect_success "relight" gi-relight -q "$S" "$TMP/f.gip" "$TMP/f.gih" "$TMP/v.script" -o "$TMP/out" --gpoints
-awk '!/^#/ && NR % 16 == 0 { print $1, $2, $3, $4, $5, $6 }' "$TMP/out/sun.gpoints" >"$TMP/p.pts"
-awk '!/^#/ && NR % 16 == 0 { print $8 }' "$TMP/out/sun.gpoints" >"$TMP/p.e"
-expect_success "sensors at the points, 1024 spp" gi-compare sensors -q "$S" "$TMP/v.script" --points "$TMP/p.pts" \
-  --spp 1024 --min-bounces 1
-cp "$TMP/stdout" "$TMP/p.sens"
-r=$(paste "$TMP/p.e" "$TMP/p.sens" | awk '{ a += $1; b += $2 } END { if (NR > 1000 && b > 0) printf "%.4f", a / b }')
+gpoints_vs_sensors "$S" "$TMP/v.script" "$TMP/out/sun.gpoints"
+r=$ratio
 check "the points' indirect light sums to within 1.5% of the path tracer's (ratio ${r:-none})" \
   awk -v r="$r" 'BEGIN { exit !(r != "" && r > 0.985 && r < 1.015) }'
 finish
