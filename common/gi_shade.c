@@ -140,10 +140,11 @@ struct gi_shade {
     float *ew;          /* per edge pixel, ne + 1 (the centre last): each sample's share of the pixel, from
                            pcov x pcov coverage rays (NULL: equal shares) */
     float *cind;        /* 3 per sf sample: its indirect light, scratch of the splat */
-    /* glossy gathers of sf samples (opts glossy_rays): per sample gr rays,
-     * each the key it reads and its cosine at the surface; gexp: the Phong
-     * exponent they were drawn for (0: none yet) */
-    uint32_t *gkey;
+    /* glossy gathers of sf samples (opts glossy_rays), in slots (gslot): per
+     * slot gr rays, each the key it reads and its cosine at the surface; gexp:
+     * the Phong exponent they were drawn for (0: none yet); gpix: the sample
+     * they were drawn at */
+    uint32_t *gkey, *gpix;
     float *gcos, *gexp;
     /* per ray: the log of its cosine to the mirror direction, and its weight for the
      * exponent gtgt (per sample, 0: none yet): the rays drawn for gexp serve
@@ -180,7 +181,7 @@ struct gi_shade {
     float *nf_gpe;      /* 3 per gathering point: its irradiance less its near field */
     uint8_t *gdo;       /* per sf sample: 1 when gterm holds its term this frame */
     int gr;
-    size_t cap_gkey, cap_gcos, cap_gexp;
+    size_t cap_gkey, cap_gcos, cap_gexp; /* cap_gexp: slots; cap_gkey: samples (gterm, gdo) */
     /* capacities (elements) of the per-view arrays: a camera move reuses
      * them, since fresh pages cost a fault each (~30% of a camera move) */
     size_t cap_px, cap_sf, cap_eidx, cap_epix, cap_esf, cap_esrc, cap_ehard, cap_rec, cap_erec, cap_cind, cap_svalid, cap_ew;
@@ -442,6 +443,7 @@ void gi_shade_free(gi_shade *sh)
     free(sh->smat);
     free(sh->esmat);
     free(sh->gkey);
+    free(sh->gpix);
     free(sh->nf_xh);
     free(sh->nf_ph);
     free(sh->nf_pk);
@@ -2082,11 +2084,11 @@ static double glossy_pmix(double m, double lca, int nc)
  * read no key. Ray j belongs to component j % C: its cosine's power
  * stratified over the component's rays, its azimuth a golden-ratio sequence
  * rotated at random (per sample and component). */
-static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, float ex, const gi_shade_opts *o)
+static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, size_t gq, float ex, const gi_shade_opts *o)
 {
     const int gr = sh->gr, nc = gr >= GI_SHADE_GLOSSY_C ? GI_SHADE_GLOSSY_C : 1;
-    uint32_t *gk = sh->gkey + i * (size_t)gr;
-    float *gc = sh->gcos + i * (size_t)gr, *gca = sh->gca + i * (size_t)gr;
+    uint32_t *gk = sh->gkey + gq * (size_t)gr;
+    float *gc = sh->gcos + gq * (size_t)gr, *gca = sh->gca + gq * (size_t)gr;
     gi_vec3 n = gi_v3p(sf->ns), ng = gi_v3p(sf->ng), wo = gi_v3p(sf->wo), p = gi_v3p(sf->p);
     gi_vec3 r = gi_reflect(wo, n), t, bt;
     gi_basis(r, &t, &bt);
@@ -2150,8 +2152,72 @@ static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, float ex, con
             nq = 0;
         }
     }
-    sh->gexp[i] = ex;
-    sh->gtgt[i] = 0.0f; /* its weights are to be made */
+    sh->gexp[gq] = ex;
+    sh->gtgt[gq] = 0.0f; /* its weights are to be made */
+    sh->gpix[gq] = (uint32_t)i;
+}
+
+/* A lobe of exponent n that spans 1 / sqrt(n + 2) radians, about, blurs
+ * more than a window twice as wide (2 x 2 gs - 1 pixels each way) when the
+ * window's angle seen from the camera is less than this times that: such a
+ * lobe gathers on a grid twice as coarse, over that window (see the
+ * splat). With --glossy-stride 2 at 640 x 480 and a vertical field of 60
+ * degrees, exponents up to 565 (roughness 0.245 and up; 0.3: 245, 0.4:
+ * 76); at 320 x 240 up to 141 (0.35), at 64 x 48 up to 4. Sponza, 640 x 480, a sun and a
+ * lamp, the floor made metal, its first frame against 256-ray gathers at
+ * every pixel (nrmse of the frame; grid 2 over 7 x 7 -> grid 4 over 15 x 15,
+ * its fine pixels gathering where the coarse are few, GI_SHADE_GLOSSY_FEW):
+ * roughness 0.25 0.0315 -> 0.0324, 0.4 0.0199 -> 0.0201, 0.6 0.0189 ->
+ * 0.0187, the gathers ~290 -> ~95 ms; a sharper lobe loses (0.15: 0.0107 ->
+ * 0.0193 on the coarse grid alone). Its columns and walls made metal
+ * instead (roughness 0.3, 0.5): 0.0680, 0.0192 -> 0.0662, 0.0219, 43% of
+ * the gathers (10.4 k of 24.0 k); the window blurs the faces' changes
+ * there, where a coarse grid alone (7.8 k) read 0.0241 at 0.5. */
+#define GI_SHADE_GLOSSY_WIDE 0.4f
+/* where fewer of the coarse grid's gathers than this lie on a pixel's
+ * surface within its window, the finer grid's pixel gathers too (the
+ * columns above at 0.5: 4 0.0237, 8 0.0219, 12 0.0218 for 7.7 k, 10.4 k,
+ * 15.4 k gathers) */
+#ifndef GI_SHADE_GLOSSY_FEW
+#define GI_SHADE_GLOSSY_FEW 8
+#endif
+/* Slots for cap gathers, those below cap_gexp kept; the new ones empty.
+ * 0: out of memory (the arrays as they were) */
+static int glossy_slots(gi_shade *sh, size_t cap)
+{
+    const size_t old = sh->cap_gexp, gr = (size_t)sh->gr;
+    if (cap <= old)
+        return 1;
+    uint32_t *gkey = realloc(sh->gkey, cap * gr * sizeof *gkey);
+    if (gkey)
+        sh->gkey = gkey;
+    float *gcos = realloc(sh->gcos, cap * gr * sizeof *gcos);
+    if (gcos)
+        sh->gcos = gcos;
+    float *gca = realloc(sh->gca, cap * gr * sizeof *gca);
+    if (gca)
+        sh->gca = gca;
+    float *gw = realloc(sh->gw, cap * gr * sizeof *gw);
+    if (gw)
+        sh->gw = gw;
+    float *gexp = realloc(sh->gexp, cap * sizeof *gexp);
+    if (gexp)
+        sh->gexp = gexp;
+    float *gtgt = realloc(sh->gtgt, cap * sizeof *gtgt);
+    if (gtgt)
+        sh->gtgt = gtgt;
+    uint32_t *gpix = realloc(sh->gpix, cap * sizeof *gpix);
+    if (gpix)
+        sh->gpix = gpix;
+    if (!gkey || !gcos || !gca || !gw || !gexp || !gtgt || !gpix)
+        return 0;
+    for (size_t q = old; q < cap; q++) {
+        gexp[q] = 0.0f;
+        gtgt[q] = 0.0f;
+        gpix[q] = UINT32_MAX;
+    }
+    sh->cap_gexp = cap;
+    return 1;
 }
 
 /* with fewer rays than components, one lobe drawn at n / 1.4, serving
@@ -2164,35 +2230,35 @@ static int glossy_reusable(const gi_shade *sh, float m, float n)
     return m > 0.0f && n >= lo * m && n <= hi * m;
 }
 
-/* The weights of sample i's rays for exponent n (glossy_reusable):
+/* The weights of slot q's rays for exponent n (glossy_reusable):
  * cos_i f_n / p_mix, with f_n = (n + 2) cos^n(a) / (2 pi). */
-static void glossy_reweight(gi_shade *sh, size_t i, float n)
+static void glossy_reweight(gi_shade *sh, size_t q, float n)
 {
     const int gr = sh->gr;
-    const float *gc = sh->gcos + i * (size_t)gr, *gca = sh->gca + i * (size_t)gr;
-    float *gw = sh->gw + i * (size_t)gr;
+    const float *gc = sh->gcos + q * (size_t)gr, *gca = sh->gca + q * (size_t)gr;
+    float *gw = sh->gw + q * (size_t)gr;
     double sc = (double)n + 2.0;
     for (int r = 0; r < gr; r++)
         gw[r] = gc[r] > 0.0f ? (float)((double)gc[r] * sc * exp((double)n * (double)gca[r])) : 0.0f;
-    sh->gtgt[i] = n;
+    sh->gtgt[q] = n;
 }
 
-/* Sample i's gather and weights ready for exponent n: drawn again only when
- * its rays cannot serve n */
-static void glossy_ready(gi_shade *sh, const ssurf *sf, size_t i, float n, const gi_shade_opts *o)
+/* Sample i's gather (in slot q) and weights ready for exponent n: drawn
+ * again only when the slot holds no rays of i's that can serve n */
+static void glossy_ready(gi_shade *sh, const ssurf *sf, size_t i, size_t q, float n, const gi_shade_opts *o)
 {
-    if (!glossy_reusable(sh, sh->gexp[i], n))
-        glossy_gather(sh, sf, i, sh->gr >= GI_SHADE_GLOSSY_C ? n : n / GI_SHADE_GLOSSY_DRAW1, o);
-    if (sh->gtgt[i] != n)
-        glossy_reweight(sh, i, n);
+    if (sh->gpix[q] != (uint32_t)i || !glossy_reusable(sh, sh->gexp[q], n))
+        glossy_gather(sh, sf, i, q, sh->gr >= GI_SHADE_GLOSSY_C ? n : n / GI_SHADE_GLOSSY_DRAW1, o);
+    if (sh->gtgt[q] != n)
+        glossy_reweight(sh, q, n);
 }
 
-/* The lobe's reflection of the radiance the gather of sample i reads, per
+/* The lobe's reflection of the radiance the gather in slot q reads, per
  * unit ks: the mean of L times the rays' weights (glossy_reweight). */
-static gi_vec3 glossy_term(const gi_shade *sh, size_t i, const float *kflux)
+static gi_vec3 glossy_term(const gi_shade *sh, size_t q, const float *kflux)
 {
-    const uint32_t *gk = sh->gkey + i * (size_t)sh->gr;
-    const float *gc = sh->gw + i * (size_t)sh->gr;
+    const uint32_t *gk = sh->gkey + q * (size_t)sh->gr;
+    const float *gc = sh->gw + q * (size_t)sh->gr;
     double a[3] = {0, 0, 0};
     for (int r = 0; r < sh->gr; r++) {
         uint32_t k = gk[r];
@@ -3798,65 +3864,80 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             any_gather |= glossy[m] == 2;
         }
         int gather = any_gather && o->key_at && o->key_flux;
-        if (gather && sh->gr != o->glossy_rays) {
-            sh->gr = o->glossy_rays;
-            sh->cap_gkey = sh->cap_gcos = sh->cap_gexp = 0; /* other sizes: reallocate */
-            free(sh->gkey);
-            free(sh->gcos);
-            free(sh->gexp);
-            free(sh->gca);
-            free(sh->gw);
-            free(sh->gtgt);
-            sh->gkey = NULL;
-            sh->gcos = NULL;
-            sh->gexp = NULL;
-            sh->gca = sh->gw = sh->gtgt = NULL;
-        }
-        if (gather && sh->cap_gexp < ns) {
-            free(sh->gkey);
-            free(sh->gcos);
-            free(sh->gexp);
-            free(sh->gca);
-            free(sh->gw);
-            free(sh->gtgt);
-            free(sh->gterm);
-            free(sh->gdo);
-            sh->gkey = malloc(ns * (size_t)sh->gr * sizeof *sh->gkey);
-            sh->gcos = malloc(ns * (size_t)sh->gr * sizeof *sh->gcos);
-            sh->gca = malloc(ns * (size_t)sh->gr * sizeof *sh->gca);
-            sh->gw = malloc(ns * (size_t)sh->gr * sizeof *sh->gw);
-            sh->gtgt = calloc(ns, sizeof *sh->gtgt);
-            sh->gexp = calloc(ns, sizeof *sh->gexp);
-            sh->gterm = malloc(3 * ns * sizeof *sh->gterm);
-            sh->gdo = calloc(ns, 1);
-            sh->cap_gkey = sh->cap_gcos = sh->cap_gexp = sh->gexp ? ns : 0;
-            if (!sh->gkey || !sh->gcos || !sh->gca || !sh->gw || !sh->gtgt || !sh->gexp || !sh->gterm || !sh->gdo) {
-                free(glossy);
-                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
-            }
-        }
         /* glossy samples: their gathers (traced once per view and exponent),
          * then the gathered term of each, in gterm. With one sample per
-         * pixel only every other pixel of every other row gathers (gdo 1),
-         * and the others (2) take their neighbours' terms, unless none on
-         * their surface lies within the window below: those gather too (3).
-         * A quarter of the rays, each pixel still averaging ~16 gathers
-         * (~550 rays, 900 before in 5 x 5): Sponza, a metal floor under a
-         * sun and a lamp, 640 x 480, the splat of a roughness change
-         * 0.94-1.09 s -> 0.29-0.30 s; against 144-ray gathers at every
-         * pixel (320 x 240), nrmse 0.012 -> 0.017 (metallic 1, roughness
-         * 0.3) and 0.011 -> 0.014 (0.15). 64 rays: 0.016 and 0.010 for
-         * 0.47-0.48 s. With several samples a pixel (--ss) every sample
-         * gathers; the window averages the samples of one jitter. */
+         * pixel only the pixels on a grid gather (gdo 1), and the others (2)
+         * take the terms of the gathers within a window around, on their
+         * surface, unless there is none: those gather too (3). The grid is
+         * every other pixel of every other row (--glossy-stride), the window
+         * 7 x 7 pixels (~16 gathers, ~550 rays): Sponza, a metal floor under
+         * a sun and a lamp, 640 x 480, the splat of a roughness change
+         * 0.94-1.09 s -> 0.29-0.30 s against gathers at every pixel over
+         * 5 x 5; against 144-ray gathers at every pixel (320 x 240), nrmse
+         * 0.012 -> 0.017 (metallic 1, roughness 0.3) and 0.011 -> 0.014
+         * (0.15). A lobe that blurs more than a window twice as wide
+         * (GI_SHADE_GLOSSY_WIDE: at 640 x 480, roughness 0.25 and up) gathers
+         * on a grid twice as coarse, over 15 x 15 pixels (~16 gathers
+         * again): a quarter of the rays. With
+         * several samples a pixel (--ss) every sample gathers; the window
+         * averages the samples of one jitter. */
         const int S1 = S == 1;
-        const int R = GI_SHADE_GLOSSY_WIN;
         const size_t gs = o->glossy_stride >= 1 ? (size_t)o->glossy_stride : 2;
         const float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
-        uint8_t *gself = NULL;
-        if (gather && S1 && !(gself = calloc(ns, 1))) {
+        /* per material: its grid's spacing and its window's half-width */
+        uint8_t *mgs = malloc(2 * (nm ? nm : 1));
+        if (!mgs) {
+            free(glossy);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        }
+        uint8_t *mwin = mgs + (nm ? nm : 1);
+        for (size_t m = 0; m < nm; m++) {
+            gi_bsdf b;
+            gi_bsdf_init(&b, &mats[m], gi_v3p(mats[m].base_color));
+            size_t g = gs;
+            /* (--glossy-stride 1 stays every pixel, for final frames) */
+            if (S1 && gs >= 2 && glossy[m] == 2 && b.exponent > 0.0f &&
+                (float)(4 * gs - 1) * pa * sqrtf(b.exponent + 2.0f) <= GI_SHADE_GLOSSY_WIDE)
+                g = 2 * gs;
+            g = g < 16 ? g : 16;
+            mgs[m] = (uint8_t)(S1 ? g : 1);
+            int r = 2 * (int)g - 1;
+            mwin[m] = (uint8_t)(!S1 || r < GI_SHADE_GLOSSY_WIN ? GI_SHADE_GLOSSY_WIN : r);
+        }
+        /* the slots: one per grid pixel (at the finest spacing, gs), then
+         * the lone gathers of the frame; with --ss one per sample */
+        const size_t gsw = S1 ? ((size_t)w + gs - 1) / gs : 0;
+        const size_t ngrid = S1 ? gsw * (((size_t)h + gs - 1) / gs) : ns;
+        if (gather && sh->gr != o->glossy_rays) {
+            sh->gr = o->glossy_rays;
+            sh->cap_gexp = 0; /* other sizes: reallocate */
+        }
+        if (gather && sh->cap_gkey < ns) {
+            free(sh->gterm);
+            free(sh->gdo);
+            sh->gterm = malloc(3 * ns * sizeof *sh->gterm);
+            sh->gdo = calloc(ns, 1);
+            sh->cap_gkey = sh->gterm && sh->gdo ? ns : 0;
+        }
+        if (gather && sh->cap_gexp < ngrid && !glossy_slots(sh, ngrid + ngrid / 16 + 64)) {
+            free(mgs);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
         }
+        if (gather && !sh->cap_gkey) {
+            free(mgs);
+            free(glossy);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
+        }
+        uint8_t *gself = NULL;
+        if (gather && S1 && !(gself = calloc(ns, 1))) {
+            free(mgs);
+            free(glossy);
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
+        }
+        double ts0 = gi_now();
+        size_t nlone = 0;
+        uint32_t *lone = NULL; /* the lone gathers' samples, in order */
         if (gather) {
 #pragma omp parallel num_threads(threads)
             {
@@ -3871,37 +3952,98 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                     gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
                     if (!(b.exponent > 0.0f))
                         continue;
-                    if (S1 && ((i % (size_t)w) % gs || (i / (size_t)w) % gs)) {
+                    const size_t g = mgs[sf->material], x = i % (size_t)w, y = i / (size_t)w;
+                    if (S1 && (x % g || y % g)) {
                         sh->gdo[i] = 2;
                         continue;
                     }
-                    glossy_ready(sh, sf, i, b.exponent, o);
-                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, i, o->key_flux));
+                    const size_t q = S1 ? (y / gs) * gsw + x / gs : i;
+                    glossy_ready(sh, sf, i, q, b.exponent, o);
+                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, q, o->key_flux));
                     sh->gdo[i] = 1;
                 }
+                /* a coarse grid's pixels on the fine grid gather too where
+                 * few of the coarse gathers around lie on their surface (a
+                 * column, curved within the window): GI_SHADE_GLOSSY_FEW */
+#pragma omp for schedule(dynamic, 256)
+                for (size_t i = 0; i < ns; i++) {
+                    if (!S1 || sh->gdo[i] != 2)
+                        continue;
+                    const ssurf *sf = &sh->sf[i];
+                    const size_t g = mgs[sf->material], x = i % (size_t)w, y = i / (size_t)w;
+                    if (g == gs || x % gs || y % gs)
+                        continue;
+                    const int R = mwin[sf->material], gg = (int)g;
+                    int x0 = (int)x - R > 0 ? (int)x - R : 0, x1 = (int)x + R < w - 1 ? (int)x + R : w - 1;
+                    int y0 = (int)y - R > 0 ? (int)y - R : 0, y1 = (int)y + R < h - 1 ? (int)y + R : h - 1;
+                    int cnt = 0;
+                    for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1; yy += gg)
+                        for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1; xx += gg) {
+                            size_t j = (size_t)yy * (size_t)w + (size_t)xx;
+                            cnt += sh->gdo[j] == 1 && glossy_neighbour(sf, &sh->sf[j], pa);
+                        }
+                    if (cnt >= GI_SHADE_GLOSSY_FEW)
+                        continue;
+                    gi_bsdf b;
+                    gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
+                    const size_t q = (y / gs) * gsw + x / gs;
+                    glossy_ready(sh, sf, i, q, b.exponent, o);
+                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, q, o->key_flux));
+                    sh->gdo[i] = 4; /* (read as 1 from the next loop on) */
+                }
+#pragma omp for schedule(static)
+                for (size_t i = 0; i < ns; i++)
+                    if (sh->gdo[i] == 4)
+                        sh->gdo[i] = 1;
                 /* the pixels left without a gathered neighbour */
 #pragma omp for schedule(dynamic, 256)
                 for (size_t i = 0; i < ns; i++) {
                     if (!S1 || sh->gdo[i] != 2)
                         continue;
                     const ssurf *sf = &sh->sf[i];
+                    const int R = mwin[sf->material], gg = (int)gs;
                     int x = (int)(i % (size_t)w), y = (int)(i / (size_t)w), found = 0;
-                    for (int dy = -R; dy <= R && !found; dy++)
-                        for (int dx = -R; dx <= R && !found; dx++) {
-                            int xx = x + dx, yy = y + dy;
-                            if (xx < 0 || yy < 0 || xx >= w || yy >= h)
-                                continue;
+                    int x0 = x - R > 0 ? x - R : 0, x1 = x + R < w - 1 ? x + R : w - 1;
+                    int y0 = y - R > 0 ? y - R : 0, y1 = y + R < h - 1 ? y + R : h - 1;
+                    for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1 && !found; yy += gg)
+                        for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1 && !found; xx += gg) {
                             size_t j = (size_t)yy * (size_t)w + (size_t)xx;
                             found = sh->gdo[j] == 1 && glossy_neighbour(sf, &sh->sf[j], pa);
                         }
-                    if (found)
-                        continue;
+                    gself[i] = (uint8_t)!found;
+                }
+            }
+            /* their slots in order, so that a later frame finds its gathers */
+            for (size_t i = 0; gself && i < ns; i++)
+                nlone += gself[i];
+            if (nlone && !(lone = malloc(nlone * sizeof *lone))) {
+                free(gself);
+                free(mgs);
+                    free(glossy);
+                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
+            }
+            for (size_t i = 0, k = 0; nlone && i < ns; i++)
+                if (gself[i])
+                    lone[k++] = (uint32_t)i;
+            if (nlone && ngrid + nlone > sh->cap_gexp && !glossy_slots(sh, ngrid + 2 * nlone + 64)) {
+                free(lone);
+                free(gself);
+                free(mgs);
+                    free(glossy);
+                return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
+            }
+#pragma omp parallel num_threads(threads)
+            {
+                gi_rt_thread_init();
+#pragma omp for schedule(dynamic, 16)
+                for (size_t k = 0; k < nlone; k++) {
+                    size_t i = lone[k];
+                    const ssurf *sf = &sh->sf[i];
                     const gi_material *mt = &mats[sf->material];
                     gi_bsdf b;
                     gi_bsdf_init(&b, mt, gi_v3p(mt->base_color));
-                    glossy_ready(sh, sf, i, b.exponent, o);
-                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, i, o->key_flux));
-                    gself[i] = 1;
+                    glossy_ready(sh, sf, i, ngrid + k, b.exponent, o);
+                    gi_v3store(sh->gterm + 3 * i, glossy_term(sh, ngrid + k, o->key_flux));
                 }
             }
         }
@@ -3911,15 +4053,19 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
          * where the reflection changes slowly, as it does across a glossy
          * lobe */
         /* the near field: each sample's own, the points' irradiance less theirs */
+        double ts1 = gi_now();
         const float r0 = o->near_field < 0.0f ? GI_SHADE_NF_AUTO * sh->h->opts.r_max : o->near_field;
         const float *gpe_all = gpe;
         gpe = nf_prepare(sh, gpe, ns, r0, lights, num_lights, mats, threads, o);
         if (!gpe) {
+            free(lone);
             free(gself);
+            free(mgs);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the near field");
         }
         const float *nfe = gpe != gpe_all ? sh->nf_ex : NULL;
+        double ts2 = gi_now();
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
         for (size_t i = 0; i < ns; i++) {
             gi_vec3 v;
@@ -3933,19 +4079,38 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                  * every sample took sample 0's term, and a metal floor at
                  * --ss 2 reflected nothing) */
                 const size_t k = i / np, pix = i % np;
+                /* the gathers on the grid, then the lone ones */
+                const int R = mwin[sf->material], gg = S1 ? (int)gs : 1;
                 int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
-                for (int dy = -R; dy <= R; dy++)
-                    for (int dx = -R; dx <= R; dx++) {
-                        int xx = x + dx, yy = y + dy;
-                        if (xx < 0 || yy < 0 || xx >= w || yy >= h)
-                            continue;
+                int x0 = x - R > 0 ? x - R : 0, x1 = x + R < w - 1 ? x + R : w - 1;
+                int y0 = y - R > 0 ? y - R : 0, y1 = y + R < h - 1 ? y + R : h - 1;
+                for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1; yy += gg)
+                    for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1; xx += gg) {
                         size_t j = k * np + (size_t)yy * (size_t)w + (size_t)xx;
-                        if (!(sh->gdo[j] == 1 || (gself && gself[j])) ||
-                            ((dx || dy) && !glossy_neighbour(sf, &sh->sf[j], pa)))
+                        if (sh->gdo[j] != 1 || (j != i && !glossy_neighbour(sf, &sh->sf[j], pa)))
                             continue;
                         g = gi_add(g, gi_v3p(sh->gterm + 3 * j));
                         cnt++;
                     }
+                for (int yy = y0; nlone && yy <= y1; yy++) {
+                    /* (only with one sample a pixel, k = 0) */
+                    uint32_t a = (uint32_t)((size_t)yy * (size_t)w + (size_t)x0);
+                    size_t lo = 0, hi = nlone;
+                    while (lo < hi) {
+                        size_t md = lo + (hi - lo) / 2;
+                        if (lone[md] < a)
+                            lo = md + 1;
+                        else
+                            hi = md;
+                    }
+                    for (; lo < nlone && lone[lo] <= (uint32_t)((size_t)yy * (size_t)w + (size_t)x1); lo++) {
+                        size_t j = lone[lo];
+                        if (j != i && !glossy_neighbour(sf, &sh->sf[j], pa))
+                            continue;
+                        g = gi_add(g, gi_v3p(sh->gterm + 3 * j));
+                        cnt++;
+                    }
+                }
                 g = gi_scale(g, cnt ? 1.0f / (float)cnt : 0.0f);
                 v = indirect_sample(sh, sf, mats, gpe, gpt, &g, nfe ? nfe + 3 * i : NULL);
             } else if (nfe && sh->rec[i].material != UINT32_MAX && glossy[sh->rec[i].material]) {
@@ -3988,7 +4153,20 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             out[1] += sum.y * sc;
             out[2] += sum.z * sc;
         }
+        if (gather)
+        {
+            size_t n1 = 0, n2 = 0, n3 = 0;
+            for (size_t i = 0; i < np * (size_t)S; i++) {
+                n1 += sh->gdo[i] == 1;
+                n2 += sh->gdo[i] == 2;
+                n3 += gself && gself[i];
+            }
+            gi_verbose("splat: glossy gathers %.1f ms (%zu on the grid, %zu of %zu others alone), near field %.1f ms, samples and pixels %.1f ms", 1e3 * (ts1 - ts0),
+                       n1, n3, n2, 1e3 * (ts2 - ts1), 1e3 * (gi_now() - ts2));
+        }
+        free(lone);
         free(gself);
+        free(mgs);
         free(glossy);
     }
     double t3 = gi_now();

@@ -71,7 +71,10 @@ typedef struct gi_shade_opts {
     float glossy_min_ks;
     /* with one sample per pixel, the pixels whose x and y are multiples of
      * this gather (default 2; 1: every pixel), the rest averaging the
-     * gathers within 7 x 7 pixels on their surface (values < 1: 2) */
+     * gathers within 7 x 7 pixels on their surface (values < 1: 2); with 2
+     * or more, lobes wider than a window twice as wide (at 640 x 480,
+     * roughness 0.25 and up) at multiples of twice it, over (4 x it - 1)^2
+     * pixels (gi_shade.c, GI_SHADE_GLOSSY_WIDE) */
     int glossy_stride;
     void (*key_at)(const void *ctx, size_t n, const float *p, const float *nrm, uint32_t *out);
     const void *key_ctx;

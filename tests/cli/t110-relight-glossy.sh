@@ -90,6 +90,32 @@ expect_success "relight rough03 at --ss 2" gi-relight -q "$S" "$TMP/r.gip" "$TMP
 e5=$(gi-compare diff "$TMP/ss2/rough03.exr" "$TMP/ref-rough03.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
 check "--ss 2: within nrmse 0.195 of the reference (nrmse $e5)" \
   awk -v a="$e5" 'BEGIN { exit !(a != "" && a + 0 < 0.195) }'
+# a lobe wider than a window twice as wide (roughness 0.7 at 256 x 192)
+# gathers on a grid twice as coarse, over 15 x 15 pixels: ~1/16 of its
+# pixels gather (1277 of 17797), where roughness 0.3 keeps a quarter; near
+# the image of every pixel gathering (0.0110; 0.0063 on the finer grid)
+cat >"$TMP/w.script" <<'SCRIPT'
+resolution 256 192
+camera position 2.7 1.6 0.3 target 1.2 0.2 2.0 up 0 1 0 fov 60
+material metal roughness 0.7
+frame wide
+material metal roughness 0.3
+frame sharp
+SCRIPT
+# "N on the grid, L of M others alone": the share of the glossy pixels that gathered
+share() { sed -n 's/.*(\([0-9]*\) on the grid, \([0-9]*\) of \([0-9]*\) others alone).*/\1 \2 \3/p' "$1" |
+  awk -v k="$2" 'NR == k { printf "%.4f", ($1 + $2) / ($1 + $3) }'; }
+expect_success "relight at 256 x 192, -v" gi-relight -v "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/w.script" -o "$TMP/w"
+cp "$TMP/stderr" "$TMP/w.log"
+expect_success "the same, every pixel gathering" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/w.script" \
+  -o "$TMP/w1" --glossy-stride 1 --frames wide
+sw=$(share "$TMP/w.log" 1) ss=$(share "$TMP/w.log" 2)
+check "roughness 0.7 gathers on the coarse grid (share $sw of its pixels, < 0.1)" \
+  awk -v a="$sw" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.1) }'
+check "roughness 0.3 on the fine grid (share $ss, > 0.2)" awk -v a="$ss" 'BEGIN { exit !(a != "" && a + 0 > 0.2) }'
+d5=$(gi-compare diff "$TMP/w/wide.exr" "$TMP/w1/wide.exr" 2>/dev/null | awk -F= '$1 == "nrmse" { print $2 }')
+check "the coarse grid's image near every pixel's (nrmse $d5, < 0.03)" \
+  awk -v a="$d5" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.03) }'
 expect_exit 2 "--glossy-stride 0 is refused" gi-relight -q "$S" "$TMP/r.gip" "$TMP/r.gih" "$TMP/v.script" \
   -o "$TMP/s0" --glossy-stride 0
 expect_stderr "glossy-stride.*range" "the message names the option and its range"
