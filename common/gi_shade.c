@@ -35,7 +35,9 @@
 #define GI_SHADE_NF_LC 4      /* lights whose near-field terms are kept */
 #define GI_SHADE_COV_MAX 31 /* largest coverage grid */
 #define GI_SHADE_K 8 /* gathering points kept per pixel sample (largest weights) */
+#ifndef GI_SHADE_GLOSSY_WIN /* (a build with 0 averages nothing: converged gathers for comparisons) */
 #define GI_SHADE_GLOSSY_WIN 3 /* glossy gathers averaged over (2 x this + 1)^2 pixels (one sample per pixel) */
+#endif
 #define GI_SHADE_STEP 4.0f /* a depth step of this many pixel footprints is an edge */
 /* an edge pixel takes its edge samples for a light when the light's
  * irradiance over its 3x3 neighbourhood spans more than this fraction of
@@ -2158,12 +2160,12 @@ static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, size_t gq, fl
 }
 
 /* A lobe of exponent n that spans 1 / sqrt(n + 2) radians, about, blurs
- * more than a window twice as wide (2 x 2 gs - 1 pixels each way) when the
- * window's angle seen from the camera is less than this times that: such a
+ * more than a window twice as wide (2 x 2 gs - 1 pixels each way) when that
+ * half-width's angle seen from the camera is less than this times that: such a
  * lobe gathers on a grid twice as coarse, over that window (see the
  * splat). With --glossy-stride 2 at 640 x 480 and a vertical field of 60
- * degrees, exponents up to 565 (roughness 0.245 and up; 0.3: 245, 0.4:
- * 76); at 320 x 240 up to 141 (0.35), at 64 x 48 up to 4. Sponza, 640 x 480, a sun and a
+ * degrees, exponents up to 562 (roughness 0.245 and up; 0.3: 245, 0.4:
+ * 76); at 320 x 240 up to 139 (0.35), at 64 x 48 up to 3.6. Sponza, 640 x 480, a sun and a
  * lamp, the floor made metal, its first frame against 256-ray gathers at
  * every pixel (nrmse of the frame; grid 2 over 7 x 7 -> grid 4 over 15 x 15,
  * its fine pixels gathering where the coarse are few, GI_SHADE_GLOSSY_FEW):
@@ -2181,6 +2183,14 @@ static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, size_t gq, fl
 #ifndef GI_SHADE_GLOSSY_FEW
 #define GI_SHADE_GLOSSY_FEW 8
 #endif
+/* The slot of the grid pixel at (fx, fy) of the grid (gw a row): those at
+ * even fx and fy first, (gw + 1) / 2 a row, ncoarse of them; then every
+ * grid pixel at fy gw + fx after them (the even ones' places unused) */
+static inline size_t grid_slot(size_t fx, size_t fy, size_t gw, size_t ncoarse)
+{
+    return !((fx | fy) & 1) ? (fy / 2) * ((gw + 1) / 2) + fx / 2 : ncoarse + fy * gw + fx;
+}
+
 /* Slots for cap gathers, those below cap_gexp kept; the new ones empty.
  * 0: out of memory (the arrays as they were) */
 static int glossy_slots(gi_shade *sh, size_t cap)
@@ -2188,33 +2198,29 @@ static int glossy_slots(gi_shade *sh, size_t cap)
     const size_t old = sh->cap_gexp, gr = (size_t)sh->gr;
     if (cap <= old)
         return 1;
-    uint32_t *gkey = realloc(sh->gkey, cap * gr * sizeof *gkey);
-    if (gkey)
-        sh->gkey = gkey;
-    float *gcos = realloc(sh->gcos, cap * gr * sizeof *gcos);
-    if (gcos)
-        sh->gcos = gcos;
-    float *gca = realloc(sh->gca, cap * gr * sizeof *gca);
-    if (gca)
-        sh->gca = gca;
-    float *gw = realloc(sh->gw, cap * gr * sizeof *gw);
-    if (gw)
-        sh->gw = gw;
-    float *gexp = realloc(sh->gexp, cap * sizeof *gexp);
-    if (gexp)
-        sh->gexp = gexp;
-    float *gtgt = realloc(sh->gtgt, cap * sizeof *gtgt);
-    if (gtgt)
-        sh->gtgt = gtgt;
-    uint32_t *gpix = realloc(sh->gpix, cap * sizeof *gpix);
-    if (gpix)
-        sh->gpix = gpix;
-    if (!gkey || !gcos || !gca || !gw || !gexp || !gtgt || !gpix)
+    int ok = 1;
+#define GROW(f, n)                                      \
+    do {                                                \
+        void *t_ = realloc(sh->f, (n) * sizeof *sh->f); \
+        if (t_)                                         \
+            sh->f = t_;                                 \
+        else                                            \
+            ok = 0;                                     \
+    } while (0)
+    GROW(gkey, cap * gr);
+    GROW(gcos, cap * gr);
+    GROW(gca, cap * gr);
+    GROW(gw, cap * gr);
+    GROW(gexp, cap);
+    GROW(gtgt, cap);
+    GROW(gpix, cap);
+#undef GROW
+    if (!ok)
         return 0;
     for (size_t q = old; q < cap; q++) {
-        gexp[q] = 0.0f;
-        gtgt[q] = 0.0f;
-        gpix[q] = UINT32_MAX;
+        sh->gexp[q] = 0.0f;
+        sh->gtgt[q] = 0.0f;
+        sh->gpix[q] = UINT32_MAX;
     }
     sh->cap_gexp = cap;
     return 1;
@@ -3884,16 +3890,19 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         const int S1 = S == 1;
         const size_t gs = o->glossy_stride >= 1 ? (size_t)o->glossy_stride : 2;
         const float pa = 2.0f * tanf(0.5f * cam->yfov) / (float)h;
-        /* per material: its grid's spacing and its window's half-width */
-        uint8_t *mgs = malloc(2 * (nm ? nm : 1));
-        if (!mgs) {
+        /* per material: its lobe's exponent at the base colour, its grid's
+         * spacing and its window's half-width */
+        const size_t nm1 = nm ? nm : 1;
+        float *mexp = malloc(nm1 * (sizeof *mexp + 2));
+        if (!mexp) {
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
         }
-        uint8_t *mwin = mgs + (nm ? nm : 1);
+        uint8_t *mgs = (uint8_t *)(mexp + nm1), *mwin = mgs + nm1;
         for (size_t m = 0; m < nm; m++) {
             gi_bsdf b;
             gi_bsdf_init(&b, &mats[m], gi_v3p(mats[m].base_color));
+            mexp[m] = b.exponent;
             size_t g = gs;
             /* (--glossy-stride 1 stays every pixel, for final frames) */
             if (S1 && gs >= 2 && glossy[m] == 2 && b.exponent > 0.0f &&
@@ -3901,13 +3910,18 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                 g = 2 * gs;
             g = g < 16 ? g : 16;
             mgs[m] = (uint8_t)(S1 ? g : 1);
-            int r = 2 * (int)g - 1;
-            mwin[m] = (uint8_t)(!S1 || r < GI_SHADE_GLOSSY_WIN ? GI_SHADE_GLOSSY_WIN : r);
+            mwin[m] = (uint8_t)(S1 && g > gs ? 2 * (int)g - 1 : GI_SHADE_GLOSSY_WIN);
         }
         /* the slots: one per grid pixel (at the finest spacing, gs), then
          * the lone gathers of the frame; with --ss one per sample */
-        const size_t gsw = S1 ? ((size_t)w + gs - 1) / gs : 0;
-        const size_t ngrid = S1 ? gsw * (((size_t)h + gs - 1) / gs) : ns;
+        /* the grid's pixels at even (x / gs, y / gs) first, the coarse
+         * grid's, side by side: a frame whose gathers are all coarse
+         * touches a quarter of the slots' memory, not half of it (fresh
+         * pages cost a fault each: Sponza's first metal frame 2887 -> 2357
+         * faults) */
+        const size_t gsw = S1 ? ((size_t)w + gs - 1) / gs : 0, gsh = S1 ? ((size_t)h + gs - 1) / gs : 0;
+        const size_t ncoarse = ((gsw + 1) / 2) * ((gsh + 1) / 2);
+        const size_t ngrid = S1 ? ncoarse + gsw * gsh : ns;
         if (gather && sh->gr != o->glossy_rays) {
             sh->gr = o->glossy_rays;
             sh->cap_gexp = 0; /* other sizes: reallocate */
@@ -3920,18 +3934,18 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             sh->cap_gkey = sh->gterm && sh->gdo ? ns : 0;
         }
         if (gather && sh->cap_gexp < ngrid && !glossy_slots(sh, ngrid + ngrid / 16 + 64)) {
-            free(mgs);
+            free(mexp);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
         }
         if (gather && !sh->cap_gkey) {
-            free(mgs);
+            free(mexp);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
         }
         uint8_t *gself = NULL;
         if (gather && S1 && !(gself = calloc(ns, 1))) {
-            free(mgs);
+            free(mexp);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
         }
@@ -3948,17 +3962,16 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                     sh->gdo[i] = 0;
                     if (sh->rec[i].material == UINT32_MAX || glossy[sh->rec[i].material] != 2 || !sf->valid)
                         continue;
-                    gi_bsdf b;
-                    gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
-                    if (!(b.exponent > 0.0f))
+                    const float ex = mexp[sf->material];
+                    if (!(ex > 0.0f))
                         continue;
                     const size_t g = mgs[sf->material], x = i % (size_t)w, y = i / (size_t)w;
                     if (S1 && (x % g || y % g)) {
                         sh->gdo[i] = 2;
                         continue;
                     }
-                    const size_t q = S1 ? (y / gs) * gsw + x / gs : i;
-                    glossy_ready(sh, sf, i, q, b.exponent, o);
+                    const size_t q = S1 ? grid_slot(x / gs, y / gs, gsw, ncoarse) : i;
+                    glossy_ready(sh, sf, i, q, ex, o);
                     gi_v3store(sh->gterm + 3 * i, glossy_term(sh, q, o->key_flux));
                     sh->gdo[i] = 1;
                 }
@@ -3977,17 +3990,15 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                     int x0 = (int)x - R > 0 ? (int)x - R : 0, x1 = (int)x + R < w - 1 ? (int)x + R : w - 1;
                     int y0 = (int)y - R > 0 ? (int)y - R : 0, y1 = (int)y + R < h - 1 ? (int)y + R : h - 1;
                     int cnt = 0;
-                    for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1; yy += gg)
-                        for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1; xx += gg) {
+                    for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1 && cnt < GI_SHADE_GLOSSY_FEW; yy += gg)
+                        for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1 && cnt < GI_SHADE_GLOSSY_FEW; xx += gg) {
                             size_t j = (size_t)yy * (size_t)w + (size_t)xx;
                             cnt += sh->gdo[j] == 1 && glossy_neighbour(sf, &sh->sf[j], pa);
                         }
                     if (cnt >= GI_SHADE_GLOSSY_FEW)
                         continue;
-                    gi_bsdf b;
-                    gi_bsdf_init(&b, &mats[sf->material], gi_v3p(mats[sf->material].base_color));
-                    const size_t q = (y / gs) * gsw + x / gs;
-                    glossy_ready(sh, sf, i, q, b.exponent, o);
+                    const size_t q = grid_slot(x / gs, y / gs, gsw, ncoarse);
+                    glossy_ready(sh, sf, i, q, mexp[sf->material], o);
                     gi_v3store(sh->gterm + 3 * i, glossy_term(sh, q, o->key_flux));
                     sh->gdo[i] = 4; /* (read as 1 from the next loop on) */
                 }
@@ -4018,7 +4029,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                 nlone += gself[i];
             if (nlone && !(lone = malloc(nlone * sizeof *lone))) {
                 free(gself);
-                free(mgs);
+                free(mexp);
                     free(glossy);
                 return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
             }
@@ -4028,7 +4039,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             if (nlone && ngrid + nlone > sh->cap_gexp && !glossy_slots(sh, ngrid + 2 * nlone + 64)) {
                 free(lone);
                 free(gself);
-                free(mgs);
+                free(mexp);
                     free(glossy);
                 return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for glossy gathers");
             }
@@ -4039,10 +4050,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                 for (size_t k = 0; k < nlone; k++) {
                     size_t i = lone[k];
                     const ssurf *sf = &sh->sf[i];
-                    const gi_material *mt = &mats[sf->material];
-                    gi_bsdf b;
-                    gi_bsdf_init(&b, mt, gi_v3p(mt->base_color));
-                    glossy_ready(sh, sf, i, ngrid + k, b.exponent, o);
+                    glossy_ready(sh, sf, i, ngrid + k, mexp[sf->material], o);
                     gi_v3store(sh->gterm + 3 * i, glossy_term(sh, ngrid + k, o->key_flux));
                 }
             }
@@ -4060,7 +4068,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         if (!gpe) {
             free(lone);
             free(gself);
-            free(mgs);
+            free(mexp);
             free(glossy);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for the near field");
         }
@@ -4166,7 +4174,7 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
         }
         free(lone);
         free(gself);
-        free(mgs);
+        free(mexp);
         free(glossy);
     }
     double t3 = gi_now();
