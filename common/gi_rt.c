@@ -3,6 +3,7 @@
 #include "gi_rt.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
 #include <pmmintrin.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -211,6 +212,115 @@ static void intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 
             }
         }
     }
+}
+
+/* ---- near-geometry query (gi_rt_near_above) ---- */
+typedef struct nearq {
+    const gi_scene *s;
+    double o[3], n[3], r2, hmin;
+    int found;
+} nearq;
+
+/* squared distance from the origin to segment a-b */
+static double seg_dist2(const double *a, const double *b)
+{
+    double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    double t = l2 > 0.0 ? -(a[0] * ab[0] + a[1] * ab[1] + a[2] * ab[2]) / l2 : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    double c[3] = {a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]};
+    return c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+}
+
+/* Does triangle tri reach the part of the ball above the plane? The
+ * triangle (relative to o) is clipped to n . q >= hmin, then the distance
+ * from o to the clipped polygon (convex, planar, <= 4 corners) is compared
+ * with r: o's projection on its plane when inside, else the nearest edge. */
+static int near_tri(const nearq *q, uint32_t tri)
+{
+    const gi_scene *s = q->s;
+    double v[3][3], h[3];
+    for (int i = 0; i < 3; i++) {
+        const float *p = s->positions + 3 * (size_t)s->indices[3 * (size_t)tri + (size_t)i];
+        for (int k = 0; k < 3; k++)
+            v[i][k] = (double)p[k] - q->o[k];
+        h[i] = v[i][0] * q->n[0] + v[i][1] * q->n[1] + v[i][2] * q->n[2] - q->hmin;
+    }
+    double poly[4][3];
+    int m = 0;
+    for (int i = 0; i < 3; i++) {
+        int j = (i + 1) % 3;
+        if (h[i] >= 0.0)
+            memcpy(poly[m++], v[i], sizeof poly[0]);
+        if ((h[i] >= 0.0) != (h[j] >= 0.0)) {
+            double t = h[i] / (h[i] - h[j]);
+            for (int k = 0; k < 3; k++)
+                poly[m][k] = v[i][k] + t * (v[j][k] - v[i][k]);
+            m++;
+        }
+    }
+    if (m == 0)
+        return 0;
+    double best = INFINITY;
+    for (int i = 0; i < m; i++) {
+        double d = seg_dist2(poly[i], poly[(i + 1) % m]);
+        best = d < best ? d : best;
+    }
+    if (best <= q->r2)
+        return 1;
+    /* o's projection inside the polygon: the distance is the plane's */
+    double e1[3], e2[3], pn[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = v[1][k] - v[0][k];
+        e2[k] = v[2][k] - v[0][k];
+    }
+    pn[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    pn[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    pn[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    double pl2 = pn[0] * pn[0] + pn[1] * pn[1] + pn[2] * pn[2];
+    if (!(pl2 > 0.0))
+        return 0; /* degenerate: its edges said it */
+    double pd = pn[0] * v[0][0] + pn[1] * v[0][1] + pn[2] * v[0][2];
+    if (pd * pd / pl2 > q->r2)
+        return 0;
+    double c[3] = {pn[0] * pd / pl2, pn[1] * pd / pl2, pn[2] * pd / pl2};
+    int pos = 0, neg = 0;
+    for (int i = 0; i < m; i++) {
+        const double *a = poly[i], *b = poly[(i + 1) % m];
+        double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        double x = pn[0] * (ab[1] * ac[2] - ab[2] * ac[1]) + pn[1] * (ab[2] * ac[0] - ab[0] * ac[2]) +
+                   pn[2] * (ab[0] * ac[1] - ab[1] * ac[0]);
+        pos |= x >= 0.0;
+        neg |= x <= 0.0;
+    }
+    return !(pos && neg);
+}
+
+static bool near_cb(struct RTCPointQueryFunctionArguments *a)
+{
+    nearq *q = a->userPtr;
+    if (q->found || !near_tri(q, a->primID))
+        return false;
+    q->found = 1;
+    a->query->radius = 0.0f; /* nothing more to look at */
+    return true;
+}
+
+int gi_rt_near_above(const gi_rt *rt, gi_vec3 o, gi_vec3 n, float r, float hmin)
+{
+    if (!rt->s || rt->s->num_triangles == 0)
+        return 0;
+    nearq q = {.s = rt->s,
+               .o = {o.x, o.y, o.z},
+               .n = {n.x, n.y, n.z},
+               .r2 = (double)r * (double)r,
+               .hmin = hmin,
+               .found = 0};
+    struct RTCPointQuery pq = {.x = o.x, .y = o.y, .z = o.z, .time = 0.0f, .radius = r};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(rt->scene, &pq, &ctx, near_cb, &q);
+    return q.found;
 }
 
 int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax)

@@ -54,6 +54,11 @@ int gi_rt_occluded(const gi_rt *rt, gi_vec3 o, gi_vec3 d, float tmin, float tmax
  * of 16 (neighbouring pixels towards one light); occluded[i] = 1 if blocked. */
 void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d, const float *tmax,
                       uint8_t *occluded);
+/* 0 when no triangle has a point q with |q - o| <= r and n . (q - o) > hmin
+ * (n unit): then no ray from o into that half-space (n . d > 0) ending
+ * within r can hit anything; 1 otherwise (or when unsure). An Embree point
+ * query, stopped at the first such triangle. */
+int gi_rt_near_above(const gi_rt *rt, gi_vec3 o, gi_vec3 n, float r, float hmin);
 /* Fill the surface record of a hit. */
 void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);
 /* The same for triangle tri at barycentrics (u, v) of scene s (no ray tracer needed). */

@@ -3097,6 +3097,16 @@ static int nf_trace(const gi_shade *sh, gi_vec3 p, gi_vec3 n, gi_vec3 ng, int K,
 {
     enum { KM = 36 };
     int k = (int)ceilf(sqrtf((float)K)), m = 0, nh = 0;
+    /* every ray leaves from ro (gi_rt_offset moves p along ng for any
+     * direction above ng) and ends within r0 above ro's plane: with no
+     * triangle there, none can hit. Most samples have none within r0
+     * (Sponza, camera-walk.script: 86-88% of those traced found nothing);
+     * the point query costs less than their rays, and the answer is the
+     * same */
+    gi_vec3 ro0 = gi_rt_offset(p, ng, ng);
+    float h0 = gi_dot(gi_sub(ro0, p), ng);
+    if (!gi_rt_near_above(sh->rt, ro0, ng, r0 * (1.0f + 1e-3f), -0.5f * gi_fmaxf(h0, 0.0f)))
+        return 0;
     gi_rng rng;
     gi_rng_seed(&rng, 0x4ea7f1e1dull, id, 0);
     gi_vec3 ro[KM], rd[KM];
@@ -3515,9 +3525,12 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
             return NULL;
         }
         sh->nf_view = sh->view_id;
-        size_t ntr = 0;
-        for (size_t i = 0; i < ns; i++)
+        size_t ntr = 0, nzero = 0;
+        for (size_t i = 0; i < ns; i++) {
             ntr += sh->nf_do[i];
+            nzero += sh->nf_do[i] && sh->nf_xo[i + 1] == sh->nf_xo[i];
+        }
+        gi_verbose("near field: %zu of the traced samples found nothing", nzero);
         double tv1 = gi_now();
         if (nf_windows(sh, ns, threads))
             return NULL;

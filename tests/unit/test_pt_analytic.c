@@ -21,6 +21,7 @@
 #include "gi_log.h"
 #include "gi_math.h"
 #include "gi_pt.h"
+#include "gi_brdf.h"
 #include "gi_rt.h"
 #include "gi_scene.h"
 
@@ -589,6 +590,74 @@ static void test_camera_rays(void **state)
     }
 }
 
+/* ---- near-geometry query: what the near field's rays could hit --------- */
+static void test_near_above(void **state)
+{
+    (void)state;
+    world w = {0};
+    w.lights[w.nl++] = point_light(0.0f, 2.0f, 0.0f, 1.0f);
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float grey[3] = {0.5f, 0.5f, 0.5f};
+    int m = gi_gltf_add_material(b, "grey", grey, 1.0f, 0.0f, NULL, 0);
+    big_plane(b, 2.0f, m); /* the floor, y = 0 */
+    /* a wall x = 1, from the floor up to y = 1, z in [-1, 1] */
+    float a0[3] = {1, 0, -1}, a1[3] = {1, 1, -1}, a2[3] = {1, 1, 1}, a3[3] = {1, 0, 1};
+    gi_gltf_add_quad(b, a0, a1, a2, a3, m);
+    /* a small slanted triangle hanging at y ~ 0.5 over (-1, -1) */
+    float t0[3] = {-1.1f, 0.45f, -1.0f}, t1[3] = {-0.9f, 0.55f, -1.0f}, t2[3] = {-1.0f, 0.5f, -0.8f};
+    gi_gltf_add_triangle(b, t0, t1, t2, m);
+    world_make(&w, b, "near", 1);
+    const gi_vec3 up = gi_v3(0, 1, 0), down = gi_v3(0, -1, 0);
+    /* 1 mm above the floor, the floor itself 1 mm below the half-space: only
+     * the wall, 0.5 m away, counts */
+    gi_vec3 o = gi_v3(0.5f, 1e-3f, 0.0f);
+    assert_int_equal(gi_rt_near_above(w.rt, o, up, 0.49f, -5e-4f), 0);
+    assert_int_equal(gi_rt_near_above(w.rt, o, up, 0.51f, -5e-4f), 1);
+    /* the floor counts once the half-space takes it in */
+    assert_int_equal(gi_rt_near_above(w.rt, o, up, 0.1f, -2e-3f), 1);
+    /* beyond the wall's top: the nearest point is its edge (1, 1, 0) */
+    o = gi_v3(0.5f, 1.3f, 0.0f);
+    float dtop = sqrtf(0.25f + 0.09f);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, dtop - 1e-3f, 0.0f), 0);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, dtop + 1e-3f, 0.0f), 1);
+    /* facing up there, the wall lies below: nothing, however far */
+    assert_int_equal(gi_rt_near_above(w.rt, o, up, 5.0f, 0.0f), 0);
+    /* facing the floor from 0.3 m above it, away from the wall */
+    o = gi_v3(-0.5f, 0.3f, 0.5f);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, 0.29f, 0.0f), 0);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, 0.31f, 0.0f), 1);
+    /* the small triangle: 0.2 m under a point above its centre (its plane
+     * tilts, so the distance is less than 0.2 but more than 0.19) */
+    o = gi_v3(-1.0f, 0.7f, -0.9f);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, 0.18f, 0.0f), 0);
+    assert_int_equal(gi_rt_near_above(w.rt, o, down, 0.2f, 0.0f), 1);
+    /* never a miss where rays find something: random points above the
+     * floor, random normals, 64 rays each within r into the half-space */
+    gi_rng rng;
+    gi_rng_seed(&rng, 99, 0, 0);
+    int zeros = 0, ones = 0;
+    for (int i = 0; i < 3000; i++) {
+        gi_vec3 p = gi_v3(-1.5f + 3.0f * gi_rng_float(&rng), 1e-3f + 1.2f * gi_rng_float(&rng),
+                          -1.5f + 3.0f * gi_rng_float(&rng));
+        gi_vec3 n = gi_sample_cosine(gi_v3(0, 1, 0), gi_rng_float(&rng), gi_rng_float(&rng));
+        if (gi_rng_float(&rng) < 0.5f)
+            n = gi_neg(n);
+        float r = 0.05f + 0.5f * gi_rng_float(&rng);
+        int near = gi_rt_near_above(w.rt, p, n, r, 0.0f);
+        zeros += !near;
+        ones += near;
+        for (int k = 0; k < 64 && !near; k++) {
+            gi_vec3 d = gi_sample_cosine(n, gi_rng_float(&rng), gi_rng_float(&rng));
+            gi_hit hit;
+            if (gi_dot(d, n) > 0.0f && gi_rt_intersect(w.rt, p, d, 0.0f, r, &hit))
+                fail_msg("ray %d from (%g %g %g) hit at t=%g, query said nothing within %g", k, p.x, p.y,
+                         p.z, hit.t, r);
+        }
+    }
+    assert_true(zeros > 300 && ones > 300); /* both answers occur */
+    world_free(&w);
+}
+
 static void test_thread_independence(void **state)
 {
     (void)state;
@@ -644,6 +713,7 @@ int main(void)
         cmocka_unit_test(test_room_rho90),
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_camera_rays),
+        cmocka_unit_test(test_near_above),
         cmocka_unit_test(test_thread_independence),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
