@@ -218,8 +218,13 @@ static void intersect_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 
 typedef struct nearq {
     const gi_scene *s;
     double o[3], n[3], r2, hmin;
-    int found;
+    int found, visits;
 } nearq;
+
+/* triangles a query looks at before it gives up (answers "unsure"): a
+ * finely tessellated plane can put thousands within reach, which would
+ * cost more than the rays the query is meant to save */
+#define GI_RT_NEAR_VISITS 96
 
 /* squared distance from the origin to segment a-b */
 static double seg_dist2(const double *a, const double *b)
@@ -299,11 +304,14 @@ static int near_tri(const nearq *q, uint32_t tri)
 static bool near_cb(struct RTCPointQueryFunctionArguments *a)
 {
     nearq *q = a->userPtr;
-    if (q->found || !near_tri(q, a->primID))
+    if (q->found)
         return false;
-    q->found = 1;
-    a->query->radius = 0.0f; /* nothing more to look at */
-    return true;
+    if (++q->visits > GI_RT_NEAR_VISITS || near_tri(q, a->primID)) {
+        q->found = 1;
+        a->query->radius = 0.0f; /* nothing more to look at */
+        return true;
+    }
+    return false;
 }
 
 int gi_rt_near_above(const gi_rt *rt, gi_vec3 o, gi_vec3 n, float r, float hmin)
@@ -315,7 +323,8 @@ int gi_rt_near_above(const gi_rt *rt, gi_vec3 o, gi_vec3 n, float r, float hmin)
                .n = {n.x, n.y, n.z},
                .r2 = (double)r * (double)r,
                .hmin = hmin,
-               .found = 0};
+               .found = 0,
+               .visits = 0};
     struct RTCPointQuery pq = {.x = o.x, .y = o.y, .z = o.z, .time = 0.0f, .radius = r};
     struct RTCPointQueryContext ctx;
     rtcInitPointQueryContext(&ctx);

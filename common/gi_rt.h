@@ -56,8 +56,9 @@ void gi_rt_occluded_n(const gi_rt *rt, int n, const gi_vec3 *o, const gi_vec3 *d
                       uint8_t *occluded);
 /* 0 when no triangle has a point q with |q - o| <= r and n . (q - o) > hmin
  * (n unit): then no ray from o into that half-space (n . d > 0) ending
- * within r can hit anything; 1 otherwise (or when unsure). An Embree point
- * query, stopped at the first such triangle. */
+ * within r can hit anything; 1 otherwise, or when unsure (more than ~100
+ * triangles within reach, as on a finely tessellated plane). An Embree
+ * point query, stopped at the first such triangle. */
 int gi_rt_near_above(const gi_rt *rt, gi_vec3 o, gi_vec3 n, float r, float hmin);
 /* Fill the surface record of a hit. */
 void gi_rt_surface(const gi_rt *rt, const gi_hit *hit, gi_surface *sf);

@@ -658,6 +658,39 @@ static void test_near_above(void **state)
     world_free(&w);
 }
 
+/* A finely tessellated plane puts hundreds of triangles within reach, all
+ * below the half-space: the query gives up ("unsure", 1) rather than look
+ * at them all; the same plane as one quad answers 0. */
+static void test_near_above_dense(void **state)
+{
+    (void)state;
+    for (int dense = 0; dense < 2; dense++) {
+        world w = {0};
+        w.lights[w.nl++] = point_light(0.0f, 2.0f, 0.0f, 1.0f);
+        gi_gltf_builder *b = gi_gltf_builder_new();
+        float grey[3] = {0.5f, 0.5f, 0.5f};
+        int m = gi_gltf_add_material(b, "grey", grey, 1.0f, 0.0f, NULL, 0);
+        if (dense) {
+            const int k = 40; /* 40 x 40 quads of 1 cm */
+            for (int i = 0; i < k; i++)
+                for (int j = 0; j < k; j++) {
+                    float x0 = -0.2f + 0.01f * (float)i, z0 = -0.2f + 0.01f * (float)j;
+                    float p0[3] = {x0, 0, z0}, p1[3] = {x0, 0, z0 + 0.01f}, p2[3] = {x0 + 0.01f, 0, z0 + 0.01f},
+                          p3[3] = {x0 + 0.01f, 0, z0};
+                    gi_gltf_add_quad(b, p0, p1, p2, p3, m);
+                }
+        } else {
+            big_plane(b, 0.2f, m);
+        }
+        world_make(&w, b, dense ? "near_dense" : "near_coarse", 1);
+        gi_vec3 o = gi_v3(0.003f, 1e-3f, 0.004f);
+        assert_int_equal(gi_rt_near_above(w.rt, o, gi_v3(0, 1, 0), 0.1f, -5e-4f), dense);
+        /* within reach of a few triangles only: decided either way */
+        assert_int_equal(gi_rt_near_above(w.rt, o, gi_v3(0, 1, 0), 0.004f, -5e-4f), 0);
+        world_free(&w);
+    }
+}
+
 static void test_thread_independence(void **state)
 {
     (void)state;
@@ -714,6 +747,7 @@ int main(void)
         cmocka_unit_test(test_furnace),
         cmocka_unit_test(test_camera_rays),
         cmocka_unit_test(test_near_above),
+        cmocka_unit_test(test_near_above_dense),
         cmocka_unit_test(test_thread_independence),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
