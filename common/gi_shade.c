@@ -24,6 +24,7 @@
 #include "gi_texfilter.h"
 
 #define GI_SHADE_AA_MAX 7 /* largest --aa */
+_Static_assert(GI_SHADE_AA_MAX * GI_SHADE_AA_MAX <= 64, "an edge pixel's samples are bits of a uint64_t");
 /* The near field's default reach, in R+. 1.25 while a point gave up the
  * exact near field; since it gives up what its gather read (nf_prepare),
  * a shorter reach does better on Sponza: sun-b (4096 spp, three gi-hvds
@@ -1051,6 +1052,16 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
     for (int a = 0; a < ns; a++)
         for (int b = a; b < ns; b++)
             same[a][b] = same[b][a] = (uint8_t)!discontinuous(sh, smp[a], smp[b], pix_angle);
+    /* as bits: samemask[a] bit b = same[a][b]; and each sample's triangle
+     * (UINT32_MAX: sees nothing), read by every ray below */
+    uint64_t samemask[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
+    uint32_t stri[GI_SHADE_AA_MAX * GI_SHADE_AA_MAX];
+    for (int a = 0; a < ns; a++) {
+        samemask[a] = 0;
+        for (int b = 0; b < ns; b++)
+            samemask[a] |= (uint64_t)same[a][b] << b;
+        stri[a] = smp[a]->valid ? smp[a]->tri : UINT32_MAX;
+    }
     const float spacing = 1.0f / sqrtf((float)ns); /* between neighbouring samples, about */
     /* a surface that few samples see (a strip along a side of the pixel, a
      * corner) has rays farther from them than the test below looks: the
@@ -1109,10 +1120,10 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
                 for (int j = 1; j < ns; j++)
                     n1 = d2[j] < d2[n1] ? j : n1;
                 float lim = sqrtf(d2[n1]) + spacing, lim2 = lim * lim;
-                int agree = 1;
+                uint64_t nearby = 0; /* bits: the samples out to lim */
                 for (int j = 0; j < ns; j++)
-                    agree &= d2[j] > lim2 || same[n1][j];
-                if (agree) {
+                    nearby |= (uint64_t)(d2[j] <= lim2) << j;
+                if (!(nearby & ~samemask[n1])) {
                     cnt[n1]++;
                     continue;
                 }
@@ -1130,7 +1141,7 @@ static void coverage_shares(gi_shade *sh, const gi_camera *cam, int w, int h, si
             float bd = INFINITY;
             if (found[i])
                 for (int j = 0; j < ns; j++)
-                    if (smp[j]->valid && smp[j]->tri == hit[i].tri) {
+                    if (stri[j] == hit[i].tri) {
                         float d = (fx[i] - spx[j]) * (fx[i] - spx[j]) + (fy[i] - spy[j]) * (fy[i] - spy[j]);
                         if (d < bd) {
                             bd = d;
