@@ -61,6 +61,11 @@ int gi_rt_new(const gi_scene *s, gi_rt **out, gi_status *st)
     }
     rtcSetDeviceErrorFunction(rt->device, on_error, rt);
     rt->scene = rtcNewScene(rt->device);
+    /* robust: rays aimed at a closed mesh's shared edges and vertices
+     * (test_closed_mesh_no_escape) missed it 4 times in 97 k with it and
+     * 5845 times without; without it Sponza's camera moves were 12% faster
+     * and its light moves 5% (2026-12-06), but a ray through an edge is a
+     * light leak */
     rtcSetSceneFlags(rt->scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_HIGH);
     if (s->num_triangles > 0) {

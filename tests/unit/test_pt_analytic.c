@@ -691,6 +691,130 @@ static void test_near_above_dense(void **state)
     }
 }
 
+/* ---- closed meshes: no ray slips between triangles ----------------------
+ * An icosphere (1280 triangles, every edge shared) around the origin: rays
+ * from inside aimed exactly at its vertices, along its edges and at random
+ * must all hit it, as intersection, as packets and as shadow rays to a point
+ * outside. A ray through a shared edge or vertex that misses every triangle
+ * there would let light leak (Embree without its robust mode: the scene
+ * flag in gi_rt.c). */
+static void ico_tri(gi_gltf_builder *b, const float *a, const float *c, const float *d, int depth, int m)
+{
+    if (depth == 0) {
+        gi_gltf_add_triangle(b, a, c, d, m);
+        return;
+    }
+    float ac[3], cd[3], da[3];
+    for (int k = 0; k < 3; k++) {
+        ac[k] = 0.5f * (a[k] + c[k]);
+        cd[k] = 0.5f * (c[k] + d[k]);
+        da[k] = 0.5f * (d[k] + a[k]);
+    }
+    float *mid[3] = {ac, cd, da};
+    for (int i = 0; i < 3; i++) { /* onto the unit sphere: shared midpoints get the same floats */
+        float l = sqrtf(mid[i][0] * mid[i][0] + mid[i][1] * mid[i][1] + mid[i][2] * mid[i][2]);
+        for (int k = 0; k < 3; k++)
+            mid[i][k] /= l;
+    }
+    ico_tri(b, a, ac, da, depth - 1, m);
+    ico_tri(b, ac, c, cd, depth - 1, m);
+    ico_tri(b, da, cd, d, depth - 1, m);
+    ico_tri(b, ac, cd, da, depth - 1, m);
+}
+
+static void test_closed_mesh_no_escape(void **state)
+{
+    (void)state;
+    world w = {0};
+    w.lights[w.nl++] = point_light(0.0f, 5.0f, 0.0f, 1.0f);
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float grey[3] = {0.5f, 0.5f, 0.5f};
+    int m = gi_gltf_add_material(b, "grey", grey, 1.0f, 0.0f, NULL, 0);
+    const float t = 1.6180339887f, n0 = sqrtf(1.0f + t * t);
+    float v[12][3] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                      {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    for (int i = 0; i < 12; i++)
+        for (int k = 0; k < 3; k++)
+            v[i][k] /= n0;
+    static const int f[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                                 {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+    for (int i = 0; i < 20; i++)
+        ico_tri(b, v[f[i][0]], v[f[i][1]], v[f[i][2]], 3, m);
+    world_make(&w, b, "ico", 1);
+    assert_int_equal((int)w.s->num_triangles, 1280);
+    gi_rng rng;
+    gi_rng_seed(&rng, 5, 0, 0);
+    enum { N = 16 };
+    int rays = 0, missed = 0, unoccluded = 0, bykind[3] = {0, 0, 0};
+    gi_vec3 ro[N], rd[N];
+    float tmax[N];
+    int q = 0;
+    for (size_t tri = 0; tri < w.s->num_triangles; tri++) {
+        const uint32_t *ix = w.s->indices + 3 * tri;
+        gi_vec3 p[3];
+        for (int i = 0; i < 3; i++)
+            p[i] = gi_v3p(w.s->positions + 3 * (size_t)ix[i]);
+        /* each vertex, points along each edge (the midpoint exactly), and a
+         * random point inside, from origins near the centre */
+        gi_vec3 aim[3 + 3 * 5 + 1];
+        int na = 0;
+        for (int i = 0; i < 3; i++) {
+            aim[na++] = p[i];
+            for (int j = 0; j < 5; j++) {
+                float s2 = j == 0 ? 0.5f : gi_rng_float(&rng);
+                aim[na++] = gi_add(p[i], gi_scale(gi_sub(p[(i + 1) % 3], p[i]), s2));
+            }
+        }
+        float u = gi_rng_float(&rng), vv = gi_rng_float(&rng);
+        if (u + vv > 1.0f)
+            u = 1.0f - u, vv = 1.0f - vv;
+        aim[na++] = gi_add(p[0], gi_add(gi_scale(gi_sub(p[1], p[0]), u), gi_scale(gi_sub(p[2], p[0]), vv)));
+        for (int a = 0; a < na; a++) {
+            gi_vec3 o = a % 2 ? gi_v3(0, 0, 0)
+                              : gi_v3(0.3f * (gi_rng_float(&rng) - 0.5f), 0.3f * (gi_rng_float(&rng) - 0.5f),
+                                      0.3f * (gi_rng_float(&rng) - 0.5f));
+            gi_vec3 d = gi_norm(gi_sub(aim[a], o));
+            gi_hit hit;
+            rays++;
+            int kind = a == na - 1 ? 2 : a % 6 == 0 ? 0 : 1; /* vertex, edge, inside */
+            int mi = !gi_rt_intersect(w.rt, o, d, 0.0f, INFINITY, &hit);
+            int un = !gi_rt_occluded(w.rt, o, d, 0.0f, 3.0f);
+            missed += mi;
+            unoccluded += un;
+            bykind[kind] += mi + un;
+            ro[q] = o;
+            rd[q] = d;
+            tmax[q++] = 3.0f;
+            if (q == N) {
+                gi_hit hh[N];
+                uint8_t found[N], occ[N];
+                gi_rt_intersect_n_upto(w.rt, q, ro, rd, tmax, hh, found);
+                gi_rt_occluded_n(w.rt, q, ro, rd, tmax, occ);
+                for (int k = 0; k < q; k++) {
+                    missed += !found[k];
+                    unoccluded += !occ[k];
+                }
+                q = 0;
+            }
+        }
+    }
+    assert_true(rays > 20000);
+    /* Each ray went single and in a packet, as intersection and as shadow
+     * ray: 4 rays traces. Embree's robust mode is not perfectly watertight
+     * either (2026-12-06: 2 intersections missed and 2 shadow rays passed of
+     * 2 x 24320 each, the single rays' at vertices); without it 2656 missed
+     * and 3189 passed (926 of the single rays' at vertices, 1730 on edges) */
+    gi_info("closed mesh: %d of %d intersections missed, %d of %d shadow rays passed (single rays: at vertices %d, "
+            "on edges %d, inside %d)",
+            missed, 2 * rays, unoccluded, 2 * rays, bykind[0], bykind[1], bykind[2]);
+    if (missed + unoccluded > 4 * rays / 1000)
+        fail_msg("%d of %d intersections with a closed mesh, aimed at its vertices and edges, missed it; %d of %d "
+                 "shadow rays passed (more than 1 in 1000: is the Embree scene robust?)",
+                 missed, 2 * rays, unoccluded, 2 * rays);
+    world_free(&w);
+}
+
 static void test_thread_independence(void **state)
 {
     (void)state;
@@ -748,6 +872,7 @@ int main(void)
         cmocka_unit_test(test_camera_rays),
         cmocka_unit_test(test_near_above),
         cmocka_unit_test(test_near_above_dense),
+        cmocka_unit_test(test_closed_mesh_no_escape),
         cmocka_unit_test(test_thread_independence),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
