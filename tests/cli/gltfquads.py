@@ -1,5 +1,5 @@
 """gltfquads.py: write_quads(path, quads), the glTF of the test scenes made of quads (mkslit.py, mkstairs.py,
-mkledge.py, mkcolumns.py, mkfins.py, mkprisms.py): one mesh of one white diffuse material, each quad's
+mkledge.py, mkcolumns.py, mkfins.py, mkprisms.py, mkplate.py): one mesh of one white diffuse material, each quad's
 corners counter-clockwise seen from the side it faces (no normals: flat faces); box_quads, the
 five faces of a box standing on the floor."""
 import base64, json, struct

@@ -2,13 +2,18 @@
 # t130-relight-near-field: a wall over a sunlit ledge 4 cm deep (mkledge.py), the
 # concave crease along which the light the ledge throws onto the wall peaks within a
 # few centimetres. The near field (the default) is traced, --near-field 0 traces none,
-# and against a 1024-spp reference the frame is within nrmse 0.032 with it, 0.045
+# and against a 1024-spp reference the frame is within nrmse 0.034 with it, 0.045
 # without; a negative reach is refused. (Until gi-hvds dropped the points inside other
 # geometry, the wall's strip inside the ledge held dark points that the crease
 # interpolated: 0.0547 without the near field, 0.0425 with it; then 0.0349 and 0.0380,
 # the near field brightening the crease by far light the ledge hides. Since the points
 # give up the near field as their gathers read it, with a reach of 0.65 R+: 0.0263;
-# README, "The near field taken out as the points read it".)
+# README, "The near field taken out as the points read it". Since a point off the sample's
+# tangent plane is out of reach (GI_SHADE_PLANE), the wall's samples just above the crease no
+# longer take the points on the ledge's front, 4 cm out, whose light less their near field
+# was the better guess of the wall's: the wall's own points within 2 cm above it, at R- apart,
+# read 0.75 to 1.10 of the path tracer's (8192-spp sensors), 0.96 in sum: 0.0256 -> 0.0322,
+# and the limit went from 0.032 to 0.034.)
 . "$(dirname "$0")/lib.sh"
 command -v python3 >/dev/null || { echo "ok 1 # skip python3 missing"; exit 0; }
 S=$TMP/ledge.gltf
@@ -30,7 +35,7 @@ check "--near-field 0 traces none" bash -c "! grep -q 'near field' '$TMP/off.log
 expect_success "reference, 1024 spp" gi-compare render -q "$S" "$TMP/v.script" --frame ledge --spp 1024 -o "$TMP/ref.exr"
 e_on=$(gi-compare diff "$TMP/on/ledge.exr" "$TMP/ref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
 e_off=$(gi-compare diff "$TMP/off/ledge.exr" "$TMP/ref.exr" | awk -F= '$1 == "nrmse" { print $2 }')
-check "with the near field within nrmse 0.032 of the reference ($e_on)" awk -v a="$e_on" 'BEGIN { exit !(a != "" && a + 0 < 0.032) }'
+check "with the near field within nrmse 0.034 of the reference ($e_on)" awk -v a="$e_on" 'BEGIN { exit !(a != "" && a + 0 < 0.034) }'
 check "without it within nrmse 0.045 of the reference ($e_off)" awk -v a="$e_off" 'BEGIN { exit !(a != "" && a + 0 < 0.045) }'
 expect_exit 2 "--near-field -1 refused" gi-relight "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/x" --near-field -1
 finish
