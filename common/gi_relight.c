@@ -90,6 +90,11 @@ struct gi_relight {
     float *slot_rad;
     uint32_t num_slots;
     float *gp_e;          /* 3 per gathering point */
+    /* lifted rays' later bounces at most lift_cap times the mean of the
+     * point's other rays (gi_relight_set_lift_cap; 0: off), of gp_nreg
+     * rays per point (its (key, count) pairs' rays; NULL without split rays) */
+    float lift_cap;
+    uint32_t *gp_nreg;
     uint32_t *gp_gen;     /* per gathering point: the light state (gen) gp_e and gp_t were gathered for */
     uint32_t gen;         /* bumped by every gi_relight_set_lights: the points are gathered when asked for */
     uint32_t *gather_list; /* scratch of gi_relight_gather: the stale points asked for */
@@ -130,6 +135,16 @@ static int alloc_all(gi_relight *r)
 
 static gi_vec3 vertex_base(const gi_relight *r, const gi_material *m, uint64_t i);
 
+/* Luminance of key k's flux less its entry points' (its later bounces). */
+static double later_lum(const gi_relight *r, uint32_t k)
+{
+    static const double lum[3] = {0.2126, 0.7152, 0.0722};
+    double l = 0.0;
+    for (int c = 0; c < 3; c++)
+        l += lum[c] * fmax((double)r->key_flux[3 * (size_t)k + c] - r->key_flux0[3 * (size_t)k + c], 0.0);
+    return l;
+}
+
 int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const gi_hvds *h, int threads,
                    uint64_t seed, gi_relight **out, gi_status *st)
 {
@@ -146,6 +161,7 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
     r->h = h;
     r->threads = threads > 0 ? threads : omp_get_num_procs();
     r->seed = seed;
+    r->lift_cap = GI_RELIGHT_LIFT_CAP;
     if (alloc_all(r)) {
         gi_relight_free(r);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %llu photons",
@@ -240,10 +256,18 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
         r->num_slots = ns;
         gi_verbose("split rays: %u pairs read %u slots", h->num_split, ns);
         r->slot_rad = gi_calloc_large(4 * (size_t)ns + 4, sizeof *r->slot_rad);
-        if (!r->slot_rad) {
+        r->gp_nreg = malloc(((size_t)h->num_gpoints + 1) * sizeof *r->gp_nreg);
+        if (!r->slot_rad || !r->gp_nreg) {
             free(fill);
             gi_relight_free(r);
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory");
+        }
+        for (uint32_t i = 0; i < h->num_gpoints; i++) {
+            const gi_gpoint *g = &h->gpoints[i];
+            uint32_t c = 0;
+            for (uint32_t j = 0; j < g->num_pairs; j++)
+                c += h->pair_count[g->first_pair + j];
+            r->gp_nreg[i] = c;
         }
     } else {
         for (uint64_t p = 0; p < P; p++)
@@ -279,6 +303,7 @@ void gi_relight_free(gi_relight *r)
     free(r->split_slot);
     free(r->slot_src);
     free(r->slot_rad);
+    free(r->gp_nreg);
     free(r->gp_e);
     free(r->gp_t);
     free(r->gp_gen);
@@ -659,6 +684,8 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     for (uint32_t k = 0; k < K; k++) {
         for (int c = 0; c < 3; c++)
             r->key_rad[4 * (size_t)k + c] = (float)((double)r->key_flux[3 * (size_t)k + c] * h->key_scale[k] * w);
+        if (r->key_mid) /* the pad: the luminance of its later bounces alone (lift_scale) */
+            r->key_rad[4 * (size_t)k + 3] = (float)(later_lum(r, k) * h->key_scale[k] * w);
     }
     /* split rays: the entry points' mean radiance, sum dA kd E / (pi sum dA),
      * and the later vertices' radiance on their own */
@@ -942,6 +969,62 @@ uint32_t gi_relight_key_at(const gi_relight *r, const float p[3], const float n[
  * reads one 16-byte record per ray. A view reads a small share of the points
  * (Sponza, 640x480: ~X of 162,880), so a light move gathers only those and a
  * camera move the ones it newly sees. */
+/* Point i's split rays: their first bounces added to a, their later bounces
+ * (read from the lifted keys) into l1. */
+static void split_sums(const gi_relight *r, uint32_t i, double a[3], float l1[3])
+{
+    const gi_hvds *h = r->h;
+    uint32_t j0 = h->split_first[i], j1 = j0 + h->split_n0[i], j2 = j1 + h->split_n1[i];
+    const uint32_t *sl = r->split_slot;
+    const uint16_t *sc = h->split_count;
+    v4f s0 = {0, 0, 0, 0}, s1 = {0, 0, 0, 0};
+    for (uint32_t j = j0; j < j1; j++) {
+        v4f l0;
+        memcpy(&l0, r->slot_rad + 4 * (size_t)sl[j], sizeof l0);
+        s0 += l0 * (float)sc[j];
+    }
+    for (uint32_t j = j1; j < j2; j++) {
+        v4f l0;
+        memcpy(&l0, r->slot_rad + 4 * (size_t)sl[j], sizeof l0);
+        s1 += l0 * (float)sc[j];
+    }
+    for (int c = 0; c < 3; c++) {
+        a[c] += s0[c];
+        l1[c] = s1[c];
+    }
+}
+
+/* The factor on point i's lifted later bounces l1 (RGB), given the
+ * luminance `later` of its pairs' later bounces. A ray lifted by
+ * --key-photons reads its later bounces from a coarser key, which may
+ * average surfaces far brighter than the one it hit: Sponza's gathering
+ * points in tight corners (radius at --r-min) read 268-477 of their 1024
+ * rays from one 0.3-1.1 m key and came to 3-12x the path tracer's indirect
+ * illuminance (u6: 62.9 lux against 8.0, 57.3 of it lifted; u3 with another
+ * seed: 151 against 12.9), each a bright blotch in a dim frame. Those rays'
+ * later bounces are held to lift_cap times the mean of the point's other
+ * rays (at least 64 of them), per ray. README, "Session 39": u3 0.1487 ->
+ * 0.1480, u6 0.1862 -> 0.1816, f4 0.0671 -> 0.0648, u3 with gi-hvds and
+ * gi-precompute seed 2 0.2401 -> 0.1632; over 6000 of u6's points against
+ * 1024-spp sensors, those with half their light lifted read 1.3-1.5x in sum
+ * before. */
+static float lift_scale(const gi_relight *r, uint32_t i, float later, const float l1[3])
+{
+    if (!(r->lift_cap > 0.0f) || !r->gp_nreg)
+        return 1.0f;
+    const gi_hvds *h = r->h;
+    uint32_t nl = 0, nreg = r->gp_nreg[i];
+    for (uint32_t j = h->split_first[i] + h->split_n0[i]; j < h->split_first[i] + h->split_n0[i] + h->split_n1[i]; j++)
+        nl += h->split_count[j];
+    if (!nl || nreg < 64)
+        return 1.0f;
+    float ll = 0.2126f * l1[0] + 0.7152f * l1[1] + 0.0722f * l1[2];
+    float lim = r->lift_cap * gi_fmaxf(later, 0.0f) / (float)nreg * (float)nl;
+    return ll > lim ? lim / ll : 1.0f;
+}
+
+void gi_relight_set_lift_cap(gi_relight *r, float cap) { r->lift_cap = cap > 0.0f ? cap : 0.0f; }
+
 void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
 {
     const gi_hvds *h = r->h;
@@ -962,6 +1045,7 @@ void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
         const uint32_t i = r->gather_list[q];
         const gi_gpoint *gp = &h->gpoints[i];
         double a[3] = {0, 0, 0};
+        float later = 0.0f; /* the pairs' later bounces, luminance (key_rad's pad) */
         {
             /* four floats a key (RGB and a pad), summed in float lanes: a
              * point has at most 1024 pairs, so float keeps ~1e-5 of the sum;
@@ -986,20 +1070,14 @@ void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
             a[0] = s0[0];
             a[1] = s0[1];
             a[2] = s0[2];
+            later = s0[3];
         }
         if (r->key_mid) {
-            uint32_t j0 = h->split_first[i], j2 = j0 + h->split_n0[i] + h->split_n1[i];
-            const uint32_t *sl = r->split_slot;
-            const uint16_t *sc = h->split_count;
-            v4f s0 = {0, 0, 0, 0};
-            for (uint32_t j = j0; j < j2; j++) {
-                v4f l0;
-                memcpy(&l0, r->slot_rad + 4 * (size_t)sl[j], sizeof l0);
-                s0 += l0 * (float)sc[j];
-            }
-            a[0] += s0[0];
-            a[1] += s0[1];
-            a[2] += s0[2];
+            float l1[3];
+            split_sums(r, i, a, l1);
+            float f = lift_scale(r, i, later, l1);
+            for (int c = 0; c < 3; c++)
+                a[c] += f * l1[c];
         }
         r->gp_e[3 * i] = (float)a[0];
         r->gp_e[3 * i + 1] = (float)a[1];
@@ -1045,6 +1123,22 @@ const float *gi_relight_gpoint_gradient(gi_relight *r)
 {
     gi_relight_gather(r, NULL, 0);
     return r->any_glossy ? r->gp_t : NULL;
+}
+void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3])
+{
+    const gi_hvds *h = r->h;
+    out[0] = out[1] = out[2] = 0.0f;
+    if (!r->key_mid || i >= h->num_gpoints)
+        return;
+    const gi_gpoint *gp = &h->gpoints[i];
+    double later = 0.0, a[3] = {0, 0, 0};
+    for (uint32_t j = 0; j < gp->num_pairs; j++)
+        later += (double)r->key_rad[4 * (size_t)h->pair_key[gp->first_pair + j] + 3] * h->pair_count[gp->first_pair + j];
+    float l1[3];
+    split_sums(r, i, a, l1);
+    float f = lift_scale(r, i, (float)later, l1);
+    for (int c = 0; c < 3; c++)
+        out[c] = f * l1[c];
 }
 const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r) { return r->gp_e; }
 const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }

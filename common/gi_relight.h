@@ -54,6 +54,17 @@ void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n);
 /* Indirect irradiance (lux, RGB) at each gathering point: 3 floats per point
  * (gathers every point first). */
 const float *gi_relight_gpoint_irradiance(gi_relight *r);
+/* The part of gathering point i's indirect irradiance (lux, RGB, into out)
+ * that its lifted rays read as later bounces from the coarser key that
+ * --key-photons lifted them to (the .gih's split rays, GSPL; 0 without
+ * them), after the lift cap below. For checking the points (gi-relight
+ * --gpoints), after gi_relight_gpoint_irradiance. */
+void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3]);
+/* Hold the later bounces that a point's lifted rays read to cap times the
+ * mean of its other rays' (per ray; applied from the next gather; 0: off).
+ * Default GI_RELIGHT_LIFT_CAP (lift_scale in gi_relight.c says why). */
+#define GI_RELIGHT_LIFT_CAP 1.5f
+void gi_relight_set_lift_cap(gi_relight *r, float cap);
 /* Per gathering point, 9 floats: for each of R, G, B the tangential part b_t
  * (cd/m^2 per unit direction) of a linear fit L(w) = E / pi + b_t . w of the
  * incident radiance, from the mean ray direction of each (key, count) pair

@@ -72,6 +72,9 @@ static void help(void)
            "                          pixel, not interpolated between gathering points: brighter,\n"
            "                          truer concave creases beside lit faces (default auto: 0.65\n"
            "                          times the .gih's R+; 0 turns it off)\n"
+           "  --lift-cap C            a gathering point's rays that --key-photons lifted to a coarser\n"
+           "                          key read their later bounces there at most C times the mean of\n"
+           "                          its other rays (default 1.5; 0: as the key holds them)\n"
            );
     fputs("  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
            "                          weighted mean, half a weighted linear fit (default), or the mean\n"
@@ -89,7 +92,7 @@ static void help(void)
            "scene), 4 system failure\n", stdout);
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR, OPT_LCAP };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
@@ -129,7 +132,8 @@ static int write_png(const char *path, const float *rgb, int w, int h, float ev,
 /* The gathering points of a frame as a gi-compare sensors points file: one
  * 'x y z nx ny nz' line each, the irradiance after a comment mark. Written
  * beside path and renamed, so path is complete or untouched. */
-static int write_gpoints(const char *path, const gi_hvds *h, const float *e, const char *frame, gi_status *st)
+static int write_gpoints(const char *path, const gi_relight *rl, const gi_hvds *h, const float *e, const char *frame,
+                         gi_status *st)
 {
     char tmp[4200];
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
@@ -137,13 +141,17 @@ static int write_gpoints(const char *path, const gi_hvds *h, const float *e, con
     if (!f)
         return gi_status_errno(st, GI_EXIT_SYSTEM, "%s: cannot create", tmp);
     fprintf(f, "# gi-relight gathering points of frame '%s': %u points\n"
-               "# x y z (m)  nx ny nz  # E_lux (luminance of the indirect illuminance)  E_r E_g E_b  radius_m  index\n",
+               "# x y z (m)  nx ny nz  # E_lux (luminance of the indirect illuminance)  E_r E_g E_b  radius_m  index"
+               "  lifted_lux (of E_lux, read as later bounces from lifted keys)\n",
             frame, h->num_gpoints);
     for (uint32_t i = 0; i < h->num_gpoints; i++) {
         const gi_gpoint *g = &h->gpoints[i];
         const float *x = e + 3 * (size_t)i;
-        fprintf(f, "%.7g %.7g %.7g %.6f %.6f %.6f # %.6g %.6g %.6g %.6g %.4g %u\n", g->pos[0], g->pos[1], g->pos[2],
-                g->nrm[0], g->nrm[1], g->nrm[2], gi_luminance(gi_v3p(x)), x[0], x[1], x[2], g->radius, i);
+        float lf[3];
+        gi_relight_gpoint_lifted(rl, i, lf);
+        fprintf(f, "%.7g %.7g %.7g %.6f %.6f %.6f # %.6g %.6g %.6g %.6g %.4g %u %.6g\n", g->pos[0], g->pos[1], g->pos[2],
+                g->nrm[0], g->nrm[1], g->nrm[2], gi_luminance(gi_v3p(x)), x[0], x[1], x[2], g->radius, i,
+                gi_luminance(gi_v3p(lf)));
     }
     int bad = ferror(f);
     if (fclose(f) || bad) {
@@ -170,14 +178,14 @@ int main(int argc, char **argv)
         {"ss", required_argument, 0, OPT_SS},    {"tex-filter", required_argument, 0, OPT_TEXF},
         {"aa", required_argument, 0, OPT_AA}, {"coverage", required_argument, 0, OPT_COV},    {"edge-refine", no_argument, 0, OPT_EREF}, {"no-edge-refine", no_argument, 0, OPT_NOEREF}, {"refine-contrast", required_argument, 0, OPT_RCON},
         {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"glossy-min-ks", required_argument, 0, OPT_GMINKS}, {"glossy-stride", required_argument, 0, OPT_GSTRIDE}, {"interp", required_argument, 0, OPT_INTERP},
-        {"near-field", required_argument, 0, OPT_NEAR},
+        {"near-field", required_argument, 0, OPT_NEAR}, {"lift-cap", required_argument, 0, OPT_LCAP},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
         {"verbose", no_argument, 0, 'v'},        {0, 0, 0, 0}};
     const char *outdir = NULL, *frames = NULL, *timings = NULL;
     int png = 0, gpts = 0, threads = 0, c;
-    float ev = 0.0f;
+    float ev = 0.0f, lift_cap = GI_RELIGHT_LIFT_CAP;
     gi_shade_opts so;
     gi_shade_opts_default(&so);
     opterr = 0;
@@ -204,6 +212,9 @@ int main(int argc, char **argv)
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
         case OPT_GMINKS: so.glossy_min_ks = (float)gi_opt_double("--glossy-min-ks", optarg, 0.0, 1.0); break;
         case OPT_GSTRIDE: so.glossy_stride = (int)gi_opt_long("--glossy-stride", optarg, 1, 4); break;
+        case OPT_LCAP:
+            lift_cap = (float)gi_opt_double("--lift-cap", optarg, 0.0, 1e6);
+            break;
         case OPT_NEAR:
             so.near_field = !strcmp(optarg, "auto") ? -1.0f : (float)gi_opt_double("--near-field", optarg, 0.0, 1e6);
             break;
@@ -344,6 +355,8 @@ int main(int argc, char **argv)
         rc = gi_rt_new(s, &rt, &st);
     if (!rc)
         rc = gi_relight_new(s, rt, gip, h, threads, so.seed, &rl, &st);
+    if (!rc)
+        gi_relight_set_lift_cap(rl, lift_cap);
     so.gather_ctx = rl;
     if (!rc)
         rc = gi_gbuffer_new(s, &gb, &st);
@@ -499,7 +512,7 @@ int main(int argc, char **argv)
             break;
         if (gpts) {
             snprintf(path, sizeof path, "%s/%s.gpoints", outdir, fr.name);
-            if ((rc = write_gpoints(path, h, gi_relight_gpoint_irradiance(rl), fr.name, &st)))
+            if ((rc = write_gpoints(path, rl, h, gi_relight_gpoint_irradiance(rl), fr.name, &st)))
                 break;
         }
         if (png) {

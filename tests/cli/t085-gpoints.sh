@@ -21,8 +21,8 @@ G=$TMP/out/published.gpoints
 n=$(sed -n '1s/.*: \([0-9]*\) points$/\1/p' "$G")
 check "the header gives the number of points ($n) and one line follows per point" \
   [ -n "$n" ] && [ "$n" -gt 100 ] && [ "$(grep -vc '^#' "$G")" -eq "$n" ]
-check "every point line: 6 numbers, '#', irradiance (lux, RGB), radius and index in order" \
-  awk '!/^#/ { if (NF != 13 || $7 != "#" || $8 < 0 || $12 <= 0 || $13 != i) bad = 1; i++ } END { exit bad }' "$G"
+check "every point line: 6 numbers, '#', irradiance (lux, RGB), radius, index in order, lifted part of E" \
+  awk '!/^#/ { if (NF != 14 || $7 != "#" || $8 < 0 || $12 <= 0 || $13 != i || $14 < 0 || $14 > $8 * 1.001 + 1e-6) bad = 1; i++ } END { exit bad }' "$G"
 check "no temporary file is left" [ -z "$(ls "$TMP/out" | grep -F .tmp.)" ]
 differ() { ! cmp -s "$1" "$2"; }
 check "the points' irradiance follows the light's move" differ "$G" "$TMP/out/point-lowered.gpoints"

@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -228,6 +229,117 @@ static int above_shelf(const gi_gpoint *g)
     return g->pos[1] > 1.9f && g->nrm[1] < -0.9f;
 }
 
+/* A grey room [0, size]^3 seen from inside, with a shelf box [slo, shi] in it
+ * (the material double-sided or not). */
+static gi_gltf_builder *box_with_shelf(float size, const float slo[3], const float shi[3], float grey,
+                                       int double_sided)
+{
+    gi_gltf_builder *b = gi_gltf_builder_new();
+    float c[3] = {grey, grey, grey};
+    int m = gi_gltf_add_material(b, "white", c, 1.0f, 0.0f, NULL, double_sided);
+    float lo[3] = {0, 0, 0}, hi[3] = {size, size, size};
+    gi_gltf_add_box(b, lo, hi, m, 1);
+    gi_gltf_add_box(b, slo, shi, m, 0);
+    return b;
+}
+
+static const uint8_t *g_held;
+static const gi_gpoint *g_held_base;
+static int held_point(const gi_gpoint *g) { return g_held[g - g_held_base]; }
+
+/* The lift cap (gi_relight_set_lift_cap): at every gathering point the later
+ * bounces its lifted rays read are, per ray, at most the cap times the mean
+ * of its other rays' later bounces (recomputed here from the keys' fluxes);
+ * some point is held (so the test sees the cap act); the irradiance drops
+ * by what was held back and by nothing else; and the held points are nearer
+ * the path tracer for it. The scene: a box lit from above with a
+ * shelf 3 cm under its ceiling, whose narrow gap and sparse photons make
+ * gi-hvds lift many rays to keys that also hold the lit walls. */
+static void test_lift_cap(void **state)
+{
+    (void)state;
+    pipe p = {0};
+    const float slo[3] = {0.0f, 0.95f, 0.0f}, shi[3] = {0.6f, 0.97f, 1.0f};
+    pipe_scene(&p, box_with_shelf(1.0f, slo, shi, 0.73f, 1), "lift_cap");
+    gi_light l = point(0.8f, 0.6f, 0.5f, 2.0f);
+    gi_hvds_opts ho;
+    gi_hvds_opts_default(&ho);
+    ho.gather_rays = 256;
+    ho.r_max = 0.05f;
+    ho.r_min = 0.01f;
+    pipe_build(&p, 40000, &ho, 2);
+    const gi_hvds *h = p.h;
+    assert_non_null(h->split_first); /* split rays: the default --entry-keys */
+    const uint32_t n = h->num_gpoints;
+    pipe_light(&p, &l, 1);
+    gi_relight_set_lift_cap(p.rl, 0.0f);
+    float *e0 = malloc(3 * (size_t)n * sizeof *e0), *lf0 = malloc(3 * (size_t)n * sizeof *lf0);
+    assert_non_null(e0);
+    assert_non_null(lf0);
+    memcpy(e0, gi_relight_gpoint_irradiance(p.rl), 3 * (size_t)n * sizeof *e0);
+    for (uint32_t i = 0; i < n; i++)
+        gi_relight_gpoint_lifted(p.rl, i, lf0 + 3 * (size_t)i);
+    gi_status st = {0};
+    gi_relight_set_lift_cap(p.rl, 1.5f);
+    assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
+    const float *e1 = gi_relight_gpoint_irradiance(p.rl);
+    const float *kf = gi_relight_key_flux(p.rl), *kf0 = gi_relight_key_flux0(p.rl);
+    assert_non_null(kf0);
+    const double w = GI_PI / (double)(h->num_rays / h->num_gpoints);
+    size_t held = 0, lifted_pts = 0;
+    uint8_t *flag = calloc(n + 1, 1);
+    assert_non_null(flag);
+    for (uint32_t i = 0; i < n; i++) {
+        const gi_gpoint *g = &h->gpoints[i];
+        double later = 0.0;
+        uint32_t nreg = 0, nl = 0;
+        for (uint32_t j = g->first_pair; j < g->first_pair + g->num_pairs; j++) {
+            uint32_t k = h->pair_key[j];
+            double lk = 0.0;
+            for (int c = 0; c < 3; c++)
+                lk += (c == 0 ? 0.2126 : c == 1 ? 0.7152 : 0.0722) * fmax((double)kf[3 * (size_t)k + c] - kf0[3 * (size_t)k + c], 0.0);
+            later += lk * h->key_scale[k] * w * h->pair_count[j];
+            nreg += h->pair_count[j];
+        }
+        uint32_t j1 = h->split_first[i] + h->split_n0[i];
+        for (uint32_t j = j1; j < j1 + h->split_n1[i]; j++)
+            nl += h->split_count[j];
+        float lf[3];
+        gi_relight_gpoint_lifted(p.rl, i, lf);
+        double l1 = gi_luminance(gi_v3p(lf)), raw = gi_luminance(gi_v3p(lf0 + 3 * (size_t)i));
+        lifted_pts += nl > 0;
+        if (nreg >= 64 && nl) {
+            double bound = 1.5 * later / nreg * nl;
+            assert_true(l1 <= bound * (1.0 + 1e-3) + 1e-9);
+            flag[i] = raw > bound * 1.001;
+            held += flag[i];
+        } else {
+            assert_true(fabs(l1 - raw) <= 1e-4 * raw + 1e-9); /* too few other rays: left alone */
+        }
+        for (int c = 0; c < 3; c++) /* it loses what was held back, and nothing else */
+            assert_true(fabs((e0[3 * (size_t)i + c] - e1[3 * (size_t)i + c]) - (lf0[3 * (size_t)i + c] - lf[c])) <=
+                        1e-3 * e0[3 * (size_t)i + c] + 1e-6);
+    }
+    /* the held points against the path tracer, with the cap and without */
+    size_t m0, m1;
+    g_held = flag;
+    g_held_base = h->gpoints;
+    double err1 = gpoint_error(&p, &l, 1, held_point, 1024, &m1);
+    gi_relight_set_lift_cap(p.rl, 0.0f);
+    assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
+    double err0 = gpoint_error(&p, &l, 1, held_point, 1024, &m0);
+    print_message("lift cap: %u points, %zu with lifted rays, %zu held; at %zu of those, error against 1024 spp "
+                  "%.2f%% without the cap, %.2f%% with it (relative rms)\n", n, lifted_pts, held, m1, 100 * err0,
+                  100 * err1);
+    assert_true(held > 0);
+    assert_int_equal(m0, m1);
+    assert_true(err1 < err0);
+    free(flag);
+    free(e0);
+    free(lf0);
+    pipe_free(&p);
+}
+
 /* Step 4 on demand: after a light move, the points asked for hold the new
  * light's irradiance, exactly as a full gather gives it, and only they do
  * until the rest are asked for. */
@@ -369,14 +481,8 @@ static void test_coarse_level_occlusion(void **state)
 {
     (void)state;
     pipe p = {0};
-    gi_gltf_builder *b = gi_gltf_builder_new();
-    float white[3] = {0.75f, 0.75f, 0.75f};
-    int m = gi_gltf_add_material(b, "white", white, 1.0f, 0.0f, NULL, 0);
-    float lo[3] = {0, 0, 0}, hi[3] = {2, 2, 2};
-    gi_gltf_add_box(b, lo, hi, m, 1);
-    float slo[3] = {0.05f, 0.2f, 0.05f}, shi[3] = {1.95f, 0.22f, 1.95f};
-    gi_gltf_add_box(b, slo, shi, m, 0);
-    pipe_scene(&p, b, "shelf");
+    const float slo[3] = {0.05f, 0.2f, 0.05f}, shi[3] = {1.95f, 0.22f, 1.95f};
+    pipe_scene(&p, box_with_shelf(2.0f, slo, shi, 0.75f, 0), "shelf");
     gi_light l = point(1.0f, 1.0f, 1.0f, 20.0f);
     gi_hvds_opts ho;
     gi_hvds_opts_default(&ho);
@@ -521,6 +627,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_thin_wall_no_leak),
         cmocka_unit_test(test_gather_on_demand),
+        cmocka_unit_test(test_lift_cap),
         cmocka_unit_test(test_keys_at_nearest),
         cmocka_unit_test(test_coarse_level_occlusion),
         cmocka_unit_test(test_cornell_like_accuracy_and_bytes),
