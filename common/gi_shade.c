@@ -3933,10 +3933,16 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
     size_t np = (size_t)w * (size_t)h;
     /* automatic: the share of pixels on edges grows as the image shrinks
      * (perimeter against area), so small images take more samples per edge
-     * pixel for the same whole-image error; the edge samples' total stays
-     * about the same. Cornell box at 64x64: 3 -> 0.064, 5 -> 0.037, 7 -> 0.032
-     * nrmse (camera-moved frame against 4096 spp). */
-    int aa = o->aa == 0 ? (np >= 200000 ? 3 : (np >= 20000 ? 5 : 7)) : (o->aa >= 3 ? (o->aa | 1) : 1);
+     * pixel for the same whole-image error. Cornell box at 64x64: 3 -> 0.064,
+     * 5 -> 0.037, 7 -> 0.032 nrmse (camera-moved frame against 4096 spp).
+     * 7 (with --coverage 11) from 20k pixels too since 2026-12-07, when 5
+     * had been the default there: Sponza at 320x240 against 1024-4096 spp,
+     * f1-f4 0.0826 0.0907 0.1091 0.0648 -> 0.0785 0.0892 0.1024 0.0635, u1-u6
+     * 0.0409 0.0578 0.1480 0.0415 0.0311 0.1816 -> 0.0400 0.0563 0.1403
+     * 0.0408 0.0307 0.1815; frames ~1.5x as long (f.script 2.15 -> 3.17 s,
+     * the G-buffer ~1.8x), about what a 640x480 view spends on its edges at
+     * 3. The Cornell box's more-variants (256x256) at most 0.0012 better. */
+    int aa = o->aa == 0 ? (np >= 200000 ? 3 : 7) : (o->aa >= 3 ? (o->aa | 1) : 1);
     if (aa > GI_SHADE_AA_MAX)
         aa = GI_SHADE_AA_MAX;
     int threads = o->threads > 0 ? o->threads : omp_get_num_procs();

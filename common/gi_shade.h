@@ -32,8 +32,8 @@ typedef struct gi_shade_opts {
                            (gi_texfilter); 0: one bilinear lookup at the sample */
     int aa;             /* with ss == 1: pixels on geometric edges (silhouettes, creases,
                            material borders) and hard shadow edges get aa x aa samples
-                           (odd; 1: off; 0, the default: 3 from 200k pixels up, 5 from
-                           20k, 7 below) */
+                           (odd; 1: off; 0, the default: 3 from 200k pixels up, 7
+                           below) */
     int edge_refine;    /* 1 (default): edge pixels whose samples see a strong contrast of
                            a point, spot or directional light's irradiance (more than 8x
                            its mean over the image) get 16 more samples of it; 0: off */

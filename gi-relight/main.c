@@ -45,7 +45,7 @@ static void help(void)
            "  --ss N                  N x N samples per pixel (default 1)\n"
            "  --aa N                  with --ss 1, N x N samples in pixels on geometric edges and\n"
            "                          (N+2) x (N+2) on hard shadow edges (odd N; 1 turns it off;\n"
-           "                          default: 3 for 200k pixels or more, 5 from 20k, 7 below)\n"
+           "                          default: 3 for 200k pixels or more, 7 below)\n"
            "  --coverage N            weigh an edge pixel's samples by the share of the pixel each\n"
            "                          sees, from N x N camera rays (light moves cost the same;\n"
            "                          default: aa + 4; 1 gives every sample an equal share)\n"
