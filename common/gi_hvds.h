@@ -48,6 +48,8 @@ typedef struct gi_hvds_opts {
                                 holding at least this many entry points (0: off, as .gih 1.1) */
     int occlusion_check;     /* 1: gathering rays descend past occluded coarse content (default) */
     int leak_check;          /* 1: split cells whose same-bin photons cannot see each other (default) */
+    int cover_min_radius;    /* rejection: 1 (default) a kept point covers a candidate within the
+                                smaller of their radii; 0: within its own (for comparisons) */
     uint64_t seed;
 } gi_hvds_opts;
 
