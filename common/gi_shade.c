@@ -969,6 +969,12 @@ static void pack_rec(const ssurf *sf, srec *r)
         r->gp[q] = sf->gp[q];
         r->w[q] = (int16_t)lrintf(gi_clampf(sf->w[q], -1.99f, 1.99f) * 16384.0f);
     }
+    /* the unused slots (weight 0) repeat the first point, which the view's
+     * gathers and near field fill: point 0 may be one they never wrote, and
+     * 0 x NaN is NaN (a checkerboard floor lost the indirect light of half its
+     * pixels, t090, whenever the near field's array held a NaN there) */
+    for (int q = sf->npairs; q < GI_SHADE_K; q++)
+        r->gp[q] = sf->npairs ? sf->gp[0] : 0;
 }
 
 /* Rasterise and fill the per-sample cache; with ss == 1 and aa >= 3, find the
@@ -3536,7 +3542,9 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         free(sh->nf_gpe);
         sh->nf_po = malloc((npt + 1) * sizeof *sh->nf_po);
         sh->nf_pn = calloc(npt + 1, 1);
-        sh->nf_gpe = malloc((npt + 1) * 3 * sizeof *sh->nf_gpe);
+        /* zeroed: only the points a view reads are written, and an
+         * uninitialised value read with weight 0 can still be a NaN */
+        sh->nf_gpe = calloc((npt + 1) * 3, sizeof *sh->nf_gpe);
         if (!sh->nf_pdone || !sh->nf_po || !sh->nf_pn || !sh->nf_gpe) {
             free(sh->nf_pdone);
             sh->nf_pdone = NULL;
