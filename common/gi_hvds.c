@@ -547,7 +547,7 @@ static int select_rejection(const gi_rt *rt, cand *c, size_t nc, const gi_hvds_o
                          * within its own radius. With the point's radius
                          * alone the foot's pixels read points a radius up
                          * the wall, which see less of the floor: Sponza
-                         * f3's sunlit column strips 6-24 cm above a sunlit
+                         * f3's sunlit column strips 15-40 cm above a sunlit
                          * ledge read 13-22 cd/m2 of indirect light where the
                          * path tracer finds 18-40 (README "Session 40") */
                         float rc = o->cover_min_radius ? fminf(re[j], r) : re[j];

@@ -509,7 +509,7 @@ static void wall_interp(const pipe *p, const float *pts, size_t n, double *out)
  * with height: gi-hvds's rejection keeps a candidate unless a kept point lies
  * within the smaller of their two radii. A kept point's radius alone let
  * points a radius up the wall, which see less of the floor, cover its foot,
- * and samples there read too little (Sponza f3: sunlit column strips 6-24 cm
+ * and samples there read too little (Sponza f3: sunlit column strips 15-40 cm
  * above a sunlit ledge read 13-22 cd/m2 of indirect light where the path
  * tracer finds 18-40). The interpolated indirect irradiance 1-8 cm above the
  * floor against the path tracer, with either rule on the same photons. */
