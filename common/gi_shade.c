@@ -199,7 +199,8 @@ struct gi_shade {
     uint8_t *nf_pn, *nf_pdone;
     size_t nf_nph, nf_cph;
     float *nf_ex;       /* 3 per sf sample: its near-field irradiance this frame */
-    uint8_t *nf_do;     /* per sf sample: 1 when it traces (NF_STRIDE) */
+    uint8_t *nf_do;     /* per sf sample: 1 when it traces (nf_stride) */
+    int nf_stride;      /* the view's stride, and its window's half-width (nf_prepare) */
     uint32_t *nf_hl, *nf_wl, *nf_co, *nf_cl; /* see nf_windows */
     uint8_t *nf_cc;
     size_t nf_nhl, nf_nwl;
@@ -266,6 +267,7 @@ void gi_shade_opts_default(gi_shade_opts *o)
     o->glossy_min_ks = GI_SHADE_GATHER_KS;
     o->glossy_stride = 2;
     o->near_field = -1.0f; /* automatic */
+    o->near_stride = 0;    /* automatic */
     o->interp_linear = 1;
     o->edge_refine = 1;
     o->refine_contrast = GI_SHADE_EDGE_REFINE;
@@ -3268,13 +3270,32 @@ static int glossy_neighbour(const ssurf *sf, const ssurf *o2, float pa)
  * hit's diffuse radiance kd / pi E_direct with a shadow ray per point, spot
  * or directional light); the splat interpolates E_rest = E - E_nb between
  * the points and adds each sample's own E_nb (averaged over the samples of
- * its surface nearby, NF_STRIDE, NF_WIN). The hits are geometry (traced once
+ * its surface nearby, nf_stride). The hits are geometry (traced once
  * per view, and once per point); a frame only shades them, with each light's
  * terms kept while it stays (struct nflc). */
 #define NF_KX 16 /* rays per traced sample (a square: whole strata) */
 #define NF_KP 36 /* rays per gathering point (a square: whole strata) */
-#define NF_STRIDE 2 /* the samples whose x and y are multiples of it trace, and those without such a sample of their surface within NF_WIN */
-#define NF_WIN 2 /* a sample's near field: the mean of those traced within (2 NF_WIN + 1)^2 on its surface */
+/* The samples whose x and y are multiples of the stride S trace, and those
+ * without such a sample of their surface within S pixels; a sample's near
+ * field is the mean of those traced within (2 S + 1)^2 pixels on its
+ * surface and within r0 / 2 (nf_neighbour): 9 of them, 144 rays, where the
+ * surface goes on. S is gi_shade_opts.near_stride, by default 2 from
+ * NF_STRIDE_PIXELS pixels up and 1 below (nf_stride_of). */
+#define NF_STRIDE_PIXELS 200000
+#define NF_STRIDE_MAX 4
+
+/* The near field's stride for a view of np pixels under options o. 1 below
+ * 200,000 pixels, where pixels are wide (Sponza at 320 x 240, against
+ * 1024-4096 spp: f3, the upper gallery over sunlit ledges, 0.1021 -> 0.0960,
+ * f1-f4 and u1-u6 within -0.0017 / +0.0003 of 2, frames ~2% longer); 2 at
+ * 640 x 480 and up, for camera moves (1 there: sun-moved 0.0776 -> 0.0762,
+ * a camera move ~600 -> ~720 ms, light moves +2 ms). */
+static int nf_stride_of(const gi_shade_opts *o, size_t np)
+{
+    if (o->near_stride >= 1)
+        return o->near_stride < NF_STRIDE_MAX ? o->near_stride : NF_STRIDE_MAX;
+    return np >= NF_STRIDE_PIXELS ? 2 : 1;
+}
 typedef struct nfhit {
     float p[3], n[3], tex[3]; /* point, shading normal facing the ray, base-colour texel (unit factor) */
     uint32_t mat;
@@ -3426,12 +3447,12 @@ static int nf_neighbour(const ssurf *sf, const ssurf *o2, float pa, float r0)
 }
 
 /* Per view: the traced samples with hits (nf_hl) and, for each sample whose
- * window (NF_WIN) holds one on its surface, the traced samples there
+ * window (nf_stride) holds one on its surface, the traced samples there
  * (nf_wl[q]: the sample, nf_cl[nf_co[q] ..]: those with hits, nf_cc[q]: all
  * of them); every other sample's near field is 0. 0 or -1 (out of memory). */
 static int nf_windows(gi_shade *sh, size_t ns, int threads)
 {
-    const int w = sh->pw, h = sh->ph;
+    const int w = sh->pw, h = sh->ph, win = sh->nf_stride;
     const size_t np = (size_t)w * (size_t)h;
     const float pa = 2.0f * tanf(0.5f * sh->pcam.yfov) / (float)h;
     free(sh->nf_hl);
@@ -3463,8 +3484,8 @@ static int nf_windows(gi_shade *sh, size_t ns, int threads)
             continue;
         size_t k = i / np, pix = i % np;
         int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w), hit = 0;
-        for (int dy = -NF_WIN; dy <= NF_WIN; dy++)
-            for (int dx = -NF_WIN; dx <= NF_WIN; dx++) {
+        for (int dy = -win; dy <= win; dy++)
+            for (int dx = -win; dx <= win; dx++) {
                 int xx = x + dx, yy = y + dy;
                 if (xx < 0 || yy < 0 || xx >= w || yy >= h)
                     continue;
@@ -3497,8 +3518,8 @@ static int nf_windows(gi_shade *sh, size_t ns, int threads)
         size_t k = i / np, pix = i % np;
         int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w), all = 0;
         uint32_t c = sh->nf_co[q];
-        for (int dy = -NF_WIN; dy <= NF_WIN; dy++)
-            for (int dx = -NF_WIN; dx <= NF_WIN; dx++) {
+        for (int dy = -win; dy <= win; dy++)
+            for (int dx = -win; dx <= win; dx++) {
                 int xx = x + dx, yy = y + dy;
                 if (xx < 0 || yy < 0 || xx >= w || yy >= h)
                     continue;
@@ -3626,6 +3647,11 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         }
     }
     /* the samples' hits, once per view: chunks traced in parallel, then packed */
+    const int stride = nf_stride_of(o, (size_t)sh->pw * (size_t)sh->ph);
+    if (stride != sh->nf_stride) {
+        sh->nf_stride = stride;
+        sh->nf_view = 0;
+    }
     if (sh->nf_view != sh->view_id) {
         double tv0 = gi_now();
         size_t nch = (ns + CH - 1) / CH;
@@ -3644,7 +3670,7 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         }
         int fail = !cb || !cn || !sh->nf_xo || !sh->nf_ex || !sh->nf_tmp || !sh->nf_do;
         if (!fail) {
-            /* which samples trace: every NF_STRIDE-th of every NF_STRIDE-th
+            /* which samples trace: every stride-th of every stride-th
              * row, and any other without one of them on its surface nearby */
             const int w = sh->pw, h = sh->ph;
             const size_t np = (size_t)w * (size_t)h;
@@ -3658,14 +3684,14 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
                     sh->nf_do[i] = 0;
                     continue;
                 }
-                if (x % NF_STRIDE == 0 && y % NF_STRIDE == 0) {
+                if (x % stride == 0 && y % stride == 0) {
                     sh->nf_do[i] = 1;
                     continue;
                 }
-                for (int dy = -NF_WIN; dy <= NF_WIN && !on; dy++)
-                    for (int dx = -NF_WIN; dx <= NF_WIN && !on; dx++) {
+                for (int dy = -stride; dy <= stride && !on; dy++)
+                    for (int dx = -stride; dx <= stride && !on; dx++) {
                         int xx = x + dx, yy = y + dy;
-                        if (xx < 0 || yy < 0 || xx >= w || yy >= h || xx % NF_STRIDE || yy % NF_STRIDE)
+                        if (xx < 0 || yy < 0 || xx >= w || yy >= h || xx % stride || yy % stride)
                             continue;
                         on = nf_neighbour(sf, &sh->sf[k * np + (size_t)yy * (size_t)w + (size_t)xx], pa, r0);
                     }

@@ -54,6 +54,11 @@ typedef struct gi_shade_opts {
      * spot and directional lights; area and emissive lights stay
      * interpolated. */
     float near_field;
+    /* the near field's samples: those whose x and y are multiples of this
+     * trace their rays, and each sample takes the mean of the 3 x 3 traced
+     * around it on its surface (1-4; 0, the default: 1 below 200k pixels,
+     * 2 from there up) */
+    int near_stride;
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */
     uint64_t seed;
