@@ -200,7 +200,8 @@ struct gi_shade {
     size_t nf_nph, nf_cph;
     float *nf_ex;       /* 3 per sf sample: its near-field irradiance this frame */
     uint8_t *nf_do;     /* per sf sample: 1 when it traces (nf_stride) */
-    int nf_stride;      /* the view's stride, and its window's half-width (nf_prepare) */
+    int nf_stride;      /* the view's near_stride (0: adaptive; nf_prepare) */
+    int nf_win;         /* its window's half-width */
     uint32_t *nf_hl, *nf_wl, *nf_co, *nf_cl; /* see nf_windows */
     uint8_t *nf_cc;
     size_t nf_nhl, nf_nwl;
@@ -3275,27 +3276,26 @@ static int glossy_neighbour(const ssurf *sf, const ssurf *o2, float pa)
  * terms kept while it stays (struct nflc). */
 #define NF_KX 16 /* rays per traced sample (a square: whole strata) */
 #define NF_KP 36 /* rays per gathering point (a square: whole strata) */
-/* The samples whose x and y are multiples of the stride S trace, and those
- * without such a sample of their surface within S pixels; a sample's near
- * field is the mean of those traced within (2 S + 1)^2 pixels on its
- * surface and within r0 / 2 (nf_neighbour): 9 of them, 144 rays, where the
- * surface goes on. S is gi_shade_opts.near_stride, by default 2 from
- * NF_STRIDE_PIXELS pixels up and 1 below (nf_stride_of). */
-#define NF_STRIDE_PIXELS 200000
+/* Which samples trace (gi_shade_opts.near_stride): with a stride S, those
+ * whose x and y are multiples of S, and those without such a sample of
+ * their surface within S pixels; a sample's near field is the mean of those
+ * traced within (2 S + 1)^2 pixels on its surface and within r0 / 2
+ * (nf_neighbour): 9 of them, 144 rays, where the surface goes on. The
+ * default (0) traces at stride 2 first and then every other sample that has
+ * one of those with a hit within 2 pixels on its surface (nf_do 2), and
+ * takes the mean over 3 x 3: stride 1 where there is a near field, 2
+ * elsewhere.
+ *
+ * A mean over 5 x 5 at stride 2 smears the peak beside a crease over +-2
+ * pixels (up to r0 / 2), too far where pixels are wide. Sponza against
+ * 1024-4096 spp, 320 x 240: f3 (the upper gallery over sunlit ledges)
+ * 0.1021 at stride 2, 0.0960 at stride 1, 0.0968 by default, the nine other
+ * views of README "Four more views" and untuned.script within -0.0013 /
+ * +0.0003 of stride 2; 640 x 480: sun-moved 0.0776 / 0.0762 / 0.0762,
+ * camera-walk.script's camera moves ~580 / ~720 / ~650 ms (the default
+ * traces ~30 k more samples a view, each with something within r0: ~55 ms),
+ * light moves the same. */
 #define NF_STRIDE_MAX 4
-
-/* The near field's stride for a view of np pixels under options o. 1 below
- * 200,000 pixels, where pixels are wide (Sponza at 320 x 240, against
- * 1024-4096 spp: f3, the upper gallery over sunlit ledges, 0.1021 -> 0.0960,
- * f1-f4 and u1-u6 within -0.0017 / +0.0003 of 2, frames ~2% longer); 2 at
- * 640 x 480 and up, for camera moves (1 there: sun-moved 0.0776 -> 0.0762,
- * a camera move ~600 -> ~720 ms, light moves +2 ms). */
-static int nf_stride_of(const gi_shade_opts *o, size_t np)
-{
-    if (o->near_stride >= 1)
-        return o->near_stride < NF_STRIDE_MAX ? o->near_stride : NF_STRIDE_MAX;
-    return np >= NF_STRIDE_PIXELS ? 2 : 1;
-}
 typedef struct nfhit {
     float p[3], n[3], tex[3]; /* point, shading normal facing the ray, base-colour texel (unit factor) */
     uint32_t mat;
@@ -3452,7 +3452,7 @@ static int nf_neighbour(const ssurf *sf, const ssurf *o2, float pa, float r0)
  * of them); every other sample's near field is 0. 0 or -1 (out of memory). */
 static int nf_windows(gi_shade *sh, size_t ns, int threads)
 {
-    const int w = sh->pw, h = sh->ph, win = sh->nf_stride;
+    const int w = sh->pw, h = sh->ph, win = sh->nf_win;
     const size_t np = (size_t)w * (size_t)h;
     const float pa = 2.0f * tanf(0.5f * sh->pcam.yfov) / (float)h;
     free(sh->nf_hl);
@@ -3647,9 +3647,11 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         }
     }
     /* the samples' hits, once per view: chunks traced in parallel, then packed */
-    const int stride = nf_stride_of(o, (size_t)sh->pw * (size_t)sh->ph);
-    if (stride != sh->nf_stride) {
-        sh->nf_stride = stride;
+    const int mode = o->near_stride < 0 ? 0 : o->near_stride > NF_STRIDE_MAX ? NF_STRIDE_MAX : o->near_stride;
+    const int stride = mode ? mode : 2, fill = !mode;
+    if (mode != sh->nf_stride || !sh->nf_win) {
+        sh->nf_stride = mode;
+        sh->nf_win = mode ? mode : 1;
         sh->nf_view = 0;
     }
     if (sh->nf_view != sh->view_id) {
@@ -3720,6 +3722,60 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
             }
             cb[c] = buf;
         }
+        /* adaptive: every other sample with a traced one of its surface
+         * within the stride that found something traces too (nf_do 2) */
+        nfhit **cb2 = fill ? calloc(nch + 1, sizeof *cb2) : NULL;
+        fail |= fill && !cb2;
+        if (fill && !fail) {
+            const int w = sh->pw, h = sh->ph;
+            const size_t np = (size_t)w * (size_t)h;
+            const float pa = 2.0f * tanf(0.5f * sh->pcam.yfov) / (float)h;
+#pragma omp parallel for schedule(static) num_threads(threads)
+            for (size_t i = 0; i < ns; i++) {
+                const ssurf *sf = &sh->sf[i];
+                if (!sf->valid || sh->nf_do[i])
+                    continue;
+                size_t k = i / np, pix = i % np;
+                int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w), on = 0;
+                for (int dy = -stride; dy <= stride && !on; dy++)
+                    for (int dx = -stride; dx <= stride && !on; dx++) {
+                        int xx = x + dx, yy = y + dy;
+                        if (xx < 0 || yy < 0 || xx >= w || yy >= h)
+                            continue;
+                        size_t j = k * np + (size_t)yy * (size_t)w + (size_t)xx;
+                        on = sh->nf_do[j] == 1 && cn[j] && nf_neighbour(sf, &sh->sf[j], pa, r0);
+                    }
+                if (on)
+                    sh->nf_do[i] = 2;
+            }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+            for (size_t c = 0; c < nch; c++) {
+                if (fail)
+                    continue;
+                gi_rt_thread_init();
+                size_t i0 = c * CH, i1 = i0 + CH < ns ? i0 + CH : ns, m = 0;
+                for (size_t i = i0; i < i1; i++)
+                    m += sh->nf_do[i] == 2;
+                if (!m)
+                    continue;
+                nfhit *buf = malloc(m * NF_KX * sizeof *buf);
+                if (!buf) {
+#pragma omp atomic write
+                    fail = 1;
+                    continue;
+                }
+                size_t n = 0;
+                for (size_t i = i0; i < i1; i++) {
+                    if (sh->nf_do[i] != 2)
+                        continue;
+                    const ssurf *sf = &sh->sf[i];
+                    int kh = nf_trace(sh, gi_v3p(sf->p), gi_v3p(sf->ns), gi_v3p(sf->ng), NF_KX, i, r0, buf + n);
+                    cn[i] = (uint32_t)kh;
+                    n += (size_t)kh;
+                }
+                cb2[c] = buf;
+            }
+        }
         size_t tot = 0;
         for (size_t i = 0; !fail && i < ns; i++) {
             sh->nf_xo[i] = (uint32_t)tot;
@@ -3737,11 +3793,23 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         for (size_t c = 0; c < nch && cb; c++) {
             if (!fail && cb[c]) {
                 size_t i0 = c * CH, i1 = i0 + CH < ns ? i0 + CH : ns;
-                memcpy(sh->nf_xh + sh->nf_xo[i0], cb[c], (sh->nf_xo[i1] - sh->nf_xo[i0]) * sizeof *sh->nf_xh);
+                if (cb2 && cb2[c]) { /* the two passes' hits, in the samples' order */
+                    const nfhit *p1 = cb[c], *p2 = cb2[c];
+                    for (size_t i = i0; i < i1; i++) {
+                        const nfhit **src = sh->nf_do[i] == 2 ? &p2 : &p1;
+                        memcpy(sh->nf_xh + sh->nf_xo[i], *src, cn[i] * sizeof *sh->nf_xh);
+                        *src += cn[i];
+                    }
+                } else {
+                    memcpy(sh->nf_xh + sh->nf_xo[i0], cb[c], (sh->nf_xo[i1] - sh->nf_xo[i0]) * sizeof *sh->nf_xh);
+                }
             }
             free(cb[c]);
+            if (cb2)
+                free(cb2[c]);
         }
         free(cb);
+        free(cb2);
         free(cn);
         if (fail) {
             free(sh->nf_xo);
@@ -3750,17 +3818,18 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
             return NULL;
         }
         sh->nf_view = sh->view_id;
-        size_t ntr = 0, nzero = 0;
+        size_t ntr = 0, nzero = 0, nfill = 0;
         for (size_t i = 0; i < ns; i++) {
-            ntr += sh->nf_do[i];
+            ntr += sh->nf_do[i] != 0;
+            nfill += sh->nf_do[i] == 2;
             nzero += sh->nf_do[i] && sh->nf_xo[i + 1] == sh->nf_xo[i];
         }
         double tv1 = gi_now();
         if (nf_windows(sh, ns, threads))
             return NULL;
-        gi_verbose("near field: %zu of %zu rays of %zu samples end within %.3g m (%.1f ms; %zu samples find "
-                   "nothing), windows %.1f ms",
-                   tot, ntr * NF_KX, ntr, r0, 1e3 * (tv1 - tv0), nzero, 1e3 * (gi_now() - tv1));
+        gi_verbose("near field: %zu of %zu rays of %zu samples (%zu of them beside a hit) end within %.3g m "
+                   "(%.1f ms; %zu samples find nothing), windows %.1f ms",
+                   tot, ntr * NF_KX, ntr, nfill, r0, 1e3 * (tv1 - tv0), nzero, 1e3 * (gi_now() - tv1));
     }
     /* each light's terms where its cache lacks them */
     double tn0 = gi_now();

@@ -56,8 +56,9 @@ typedef struct gi_shade_opts {
     float near_field;
     /* the near field's samples: those whose x and y are multiples of this
      * trace their rays, and each sample takes the mean of the 3 x 3 traced
-     * around it on its surface (1-4; 0, the default: 1 below 200k pixels,
-     * 2 from there up) */
+     * around it on its surface (1-4; 0, the default: 2, and then every
+     * other sample beside one that found something, with the mean over
+     * 3 x 3 pixels) */
     int near_stride;
     int direct;         /* include direct light (default 1) */
     int indirect;       /* include interpolated indirect light (default 1) */

@@ -13,9 +13,9 @@
 # longer take the points on the ledge's front, 4 cm out, whose light less their near field
 # was the better guess of the wall's: the wall's own points within 2 cm above it, at R- apart,
 # read 0.75 to 1.10 of the path tracer's (8192-spp sensors), 0.96 in sum: 0.0256 -> 0.0322,
-# and the limit went from 0.032 to 0.034. Since frames under 200k pixels take the near field's
-# mean over the 3 x 3 pixels around each pixel, not every other pixel's over 5 x 5 (the
-# default --near-stride 1 here): 0.0323 -> 0.0250, and --near-stride 2 must err more.)
+# and the limit went from 0.032 to 0.034. Since the pixels beside a near hit trace too and
+# take the near field's mean over the 3 x 3 pixels around them, not every other pixel's over
+# 5 x 5 (--near-stride auto): 0.0323 -> 0.0248, and --near-stride 2 must err more.)
 . "$(dirname "$0")/lib.sh"
 command -v python3 >/dev/null || { echo "ok 1 # skip python3 missing"; exit 0; }
 S=$TMP/ledge.gltf
@@ -30,7 +30,8 @@ expect_success "precompute" gi-precompute -q "$S" -o "$TMP/l.gip" --photons 2000
 expect_success "hvds" gi-hvds -q "$S" "$TMP/l.gip" -o "$TMP/l.gih"
 expect_success "relight, near field (default)" gi-relight -v "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/on"
 cp "$TMP/stderr" "$TMP/on.log"
-check "it traced the near field" grep -q "near field: .* rays of .* samples end within" "$TMP/on.log"
+check "it traced the near field" grep -q "near field: .* rays of .* samples .* end within" "$TMP/on.log"
+check "and the pixels beside its hits" grep -Eq "samples \([1-9][0-9]* of them beside a hit\)" "$TMP/on.log"
 expect_success "relight, --near-field 0" gi-relight -v "$S" "$TMP/l.gip" "$TMP/l.gih" "$TMP/v.script" -o "$TMP/off" --near-field 0
 cp "$TMP/stderr" "$TMP/off.log"
 check "--near-field 0 traces none" bash -c "! grep -q 'near field' '$TMP/off.log'"
