@@ -3725,7 +3725,8 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         /* adaptive: every other sample with a traced one of its surface
          * within the stride that found something traces too (nf_do 2) */
         nfhit **cb2 = fill ? calloc(nch + 1, sizeof *cb2) : NULL;
-        fail |= fill && !cb2;
+        uint8_t *mk = fill ? calloc(ns + 1, 1) : NULL; /* (marked apart: the loop reads nf_do's neighbours) */
+        fail |= fill && (!cb2 || !mk);
         if (fill && !fail) {
             const int w = sh->pw, h = sh->ph;
             const size_t np = (size_t)w * (size_t)h;
@@ -3745,9 +3746,11 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
                         size_t j = k * np + (size_t)yy * (size_t)w + (size_t)xx;
                         on = sh->nf_do[j] == 1 && cn[j] && nf_neighbour(sf, &sh->sf[j], pa, r0);
                     }
-                if (on)
-                    sh->nf_do[i] = 2;
+                mk[i] = (uint8_t)on;
             }
+            for (size_t i = 0; i < ns; i++)
+                if (mk[i])
+                    sh->nf_do[i] = 2;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
             for (size_t c = 0; c < nch; c++) {
                 if (fail)
@@ -3810,6 +3813,7 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
         }
         free(cb);
         free(cb2);
+        free(mk);
         free(cn);
         if (fail) {
             free(sh->nf_xo);
