@@ -170,6 +170,19 @@ check "p5 alone is the same as after five other states (rms=$(val rms))" [ "$(va
 expect_success "twelve lamps, then one moved" "$GR" "${IN[@]}" "$TMP/twelve.script" -o "$TMP/twelve" -v
 n=$(sed -n "/frame 0 'twelve'/,\$p" "$TMP/stderr" | grep -c 'light [0-9]*: rows')
 check "... the move recomputes the direct light of one lamp ($n)" [ "$n" = 1 ]
+# -v counts the photons after the entry points that carry light: only paths
+# from lit entry points do. Twelve lamps under the ceiling light most of the
+# box; a 4-degree spot on the floor lights a patch of it.
+lit() { sed -n 's/.* \([0-9]*\) of \([0-9]*\) photons after the entry points carry light.*/\1 \2/p' "$1" | head -1; }
+read -r l12 n12 <<<"$(lit "$TMP/stderr")"
+printf 'resolution 16 16\ncamera position 0.278 0.273 -0.8 target 0.278 0.273 0 up 0 1 0 fov 39.3076\n%s\n%s\nframe spot\n' \
+  'light ceiling off' 'light s spot position 0.278 0.5 0.28 direction 0 -1 0 intensity 1 outer 4 inner 3' >"$TMP/spot.script"
+expect_success "a narrow spot, -v" "$GR" "${IN[@]}" "$TMP/spot.script" -o "$TMP/spot" -v
+read -r ls ns <<<"$(lit "$TMP/stderr")"
+check "... twelve lamps: $l12 of $n12 photons carry light, over 30%" \
+  awk -v a="$l12" -v n="$n12" 'BEGIN { exit !(n > 0 && a <= n && a > 0.3 * n) }'
+check "... the spot: $ls of $ns, under a tenth of the lamps' share and not none" \
+  awk -v a="$ls" -v n="$ns" -v b="$l12" -v m="$n12" 'BEGIN { exit !(n == m && a > 0 && a < 0.1 * b) }'
 # Every light is traced at strength 1 and white and scaled: dimming or tinting
 # a lamp retraces nothing, and the frame is the lamp's light scaled exactly
 # (the lamp alone: twice the intensity is twice every pixel, direct and indirect).
