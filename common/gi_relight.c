@@ -12,6 +12,7 @@
 #include "gi_light.h"
 #include "gi_log.h"
 #include "gi_math.h"
+#include "gi_photon.h"
 #include "gi_rng.h"
 
 /* four float lanes (GCC and Clang vector extension; SSE on x86-64) */
@@ -48,8 +49,19 @@ struct kslot {
     float pos[3], nrm[3];
     uint64_t id;  /* its cell, packed (kpack): a bucket holds several cells */
     uint32_t key; /* the key a ray that finds it reads (its own or an ancestor with >= 8 photons) */
-    uint32_t pad;
+    uint32_t fine; /* its own (finest) key: where a fresh photon found beside it is summed */
 };
+
+/* A fresh photon (gi_relight_set_fresh_paths) while its key is looked up. */
+struct fdep {
+    float p[3], n[3], f[3];
+    uint32_t key;
+};
+typedef struct fbuf {
+    struct fdep *d;
+    size_t n, cap;
+    int failed;
+} fbuf;
 
 struct gi_relight {
     light_slot slots[GI_RELIGHT_SLOTS];
@@ -99,6 +111,16 @@ struct gi_relight {
     uint32_t gen;         /* bumped by every gi_relight_set_lights: the points are gathered when asked for */
     uint32_t *gather_list; /* scratch of gi_relight_gather: the stale points asked for */
     float *gp_t;          /* 9 per gathering point: tangential gradient of incident radiance (NULL: no GDIR) */
+    /* fresh paths (gi_relight_set_fresh_paths): per light state, this many
+     * paths traced from the lit diffuse entry points, chosen in proportion
+     * to their flux, weighed with those entries' .gip later vertices */
+    uint32_t fresh_paths;
+    double *fresh_acc;    /* 3 per key, zero between light states */
+    double *fresh_cdf;    /* per entry + 1: the running sum of the diffuse entries' flux luminance */
+    size_t fresh_deposits, fresh_lost;
+    double fresh_t_keys;
+    double fresh_alpha;   /* the weight of the .gip's later photons (of diffuse entries); 1 - it the fresh ones' */
+    double fresh_ess[2];  /* effective sample sizes: the .gip's, the fresh paths' */
     int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
     /* gi_relight_key_at: photons in a hash grid of cell kcell (CSR by bucket) */
     float kcell;
@@ -310,6 +332,8 @@ void gi_relight_free(gi_relight *r)
     free(r->gather_list);
     free(r->kb_start);
     free(r->kslot);
+    free(r->fresh_acc);
+    free(r->fresh_cdf);
     free(r);
 }
 
@@ -412,6 +436,8 @@ int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsig
     r->times.materials = gi_now() - t0;
     return 0;
 }
+
+static int fresh_trace(gi_relight *r, fbuf *bufs, size_t *nlit, gi_status *st);
 
 int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int area_samples, gi_status *st)
 {
@@ -633,11 +659,106 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     r->rays_seconds = t0b - t0;
     double t1 = gi_now();
     /* 2. along the paths */
+    const int fresh = r->fresh_paths > 0;
+    if (fresh) {
+        if (gi_relight_prepare_keys(r, st))
+            return st->code;
+        if (!r->fresh_acc && !(r->fresh_acc = gi_calloc_large(3 * (size_t)h->num_keys + 3, sizeof *r->fresh_acc)))
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    }
+    /* with fresh paths, the luminance of the diffuse entry points' later
+     * photons and of its square, per chunk of entries in a fixed order
+     * (the same sums whatever the thread count) */
+    enum { ECH = 4096 };
+    const uint32_t nech = (g->num_entries + ECH - 1) / ECH;
+    double *esum = fresh ? calloc(2 * (size_t)nech + 2, sizeof *esum) : NULL;
+    if (fresh && !esum)
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    double t1b = gi_now();
+#pragma omp parallel for schedule(dynamic, 1) num_threads(r->threads)
+    for (uint32_t ch = 0; ch < nech; ch++) {
+        uint32_t e1 = (ch + 1) * ECH < g->num_entries ? (ch + 1) * ECH : g->num_entries;
+        double s1 = 0.0, s2 = 0.0;
+        for (uint32_t e = ch * ECH; e < e1; e++) {
+            const int diffuse = r->entry_fd[3 * (size_t)e] >= 0.0f;
+            for (uint64_t i = g->path_start[e] + 1; i < g->path_start[e + 1]; i++) {
+                for (int c = 0; c < 3; c++)
+                    r->flux[3 * i + c] = r->flux[3 * (i - 1) + c] * r->refl[3 * i + c];
+                if (esum && diffuse) {
+                    double l = 0.2126 * r->flux[3 * i] + 0.7152 * r->flux[3 * i + 1] + 0.0722 * r->flux[3 * i + 2];
+                    s1 += l;
+                    s2 += l * l;
+                }
+            }
+        }
+        if (esum) {
+            esum[2 * ch] = s1;
+            esum[2 * ch + 1] = s2;
+        }
+    }
+    fbuf *fb = NULL;
+    size_t fresh_lit = 0;
+    r->fresh_deposits = r->fresh_lost = 0;
+    r->fresh_alpha = 1.0;
+    r->fresh_ess[0] = r->fresh_ess[1] = 0.0;
+    if (fresh) {
+        double p1 = 0.0, p2 = 0.0;
+        for (uint32_t ch = 0; ch < nech; ch++) {
+            p1 += esum[2 * ch];
+            p2 += esum[2 * ch + 1];
+        }
+        free(esum);
+        if (!(fb = calloc((size_t)r->threads, sizeof *fb)))
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+        int frc = fresh_trace(r, fb, &fresh_lit, st);
+        if (frc) {
+            for (int t = 0; t < r->threads; t++)
+                free(fb[t].d);
+            free(fb);
+            return frc;
+        }
+        /* two estimates of the same later bounces, weighed by their
+         * effective sample sizes (sum w)^2 / sum w^2, inversely to their
+         * variance: the .gip's photons of diffuse entries (few carry light,
+         * and their flux can span orders of magnitude, as beside a lamp
+         * close to a wall) and the fresh ones (about equal flux each) */
+        double f1 = 0.0, f2 = 0.0;
+        for (int t = 0; t < r->threads; t++)
+            for (size_t i = 0; i < fb[t].n; i++) {
+                const struct fdep *d = &fb[t].d[i];
+                if (d->key == GI_HVDS_NO_KEY)
+                    continue;
+                double l = 0.2126 * d->f[0] + 0.7152 * d->f[1] + 0.0722 * d->f[2];
+                f1 += l;
+                f2 += l * l;
+            }
+        double essp = p2 > 0.0 ? p1 * p1 / p2 : 0.0, essf = f2 > 0.0 ? f1 * f1 / f2 : 0.0;
+        r->fresh_ess[0] = essp;
+        r->fresh_ess[1] = essf;
+        r->fresh_alpha = essp + essf > 0.0 ? essp / (essp + essf) : 1.0;
+        const float alpha = (float)r->fresh_alpha, beta = (float)(1.0 - r->fresh_alpha);
+        if (alpha < 1.0f) {
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads)
-    for (uint32_t e = 0; e < g->num_entries; e++) {
-        for (uint64_t i = g->path_start[e] + 1; i < g->path_start[e + 1]; i++)
-            for (int c = 0; c < 3; c++)
-                r->flux[3 * i + c] = r->flux[3 * (i - 1) + c] * r->refl[3 * i + c];
+            for (uint32_t e = 0; e < g->num_entries; e++) {
+                if (r->entry_fd[3 * (size_t)e] < 0.0f)
+                    continue;
+                for (uint64_t i = g->path_start[e] + 1; i < g->path_start[e + 1]; i++)
+                    for (int c = 0; c < 3; c++)
+                        r->flux[3 * i + c] *= alpha;
+            }
+        }
+        /* summed in path order (thread t's buffer holds a contiguous range) */
+        for (int t = 0; t < r->threads; t++)
+            for (size_t i = 0; i < fb[t].n; i++) {
+                const struct fdep *d = &fb[t].d[i];
+                if (d->key == GI_HVDS_NO_KEY) {
+                    r->fresh_lost++;
+                    continue;
+                }
+                r->fresh_deposits++;
+                for (int c = 0; c < 3; c++)
+                    r->fresh_acc[3 * (size_t)d->key + c] += (double)(beta * d->f[c]);
+            }
     }
     double t2 = gi_now();
     /* 3. keys: sum of their photons, then up the hierarchy (parents after children) */
@@ -663,9 +784,22 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             a[1] += f[1];
             a[2] += f[2];
         }
+        if (fresh)
+            for (int c = 0; c < 3; c++)
+                a[c] += r->fresh_acc[3 * (size_t)k + c];
         r->key_flux[3 * k] = (float)a[0];
         r->key_flux[3 * k + 1] = (float)a[1];
         r->key_flux[3 * k + 2] = (float)a[2];
+    }
+    if (fb) {
+        for (int t = 0; t < r->threads; t++) {
+            for (size_t i = 0; i < fb[t].n; i++)
+                if (fb[t].d[i].key != GI_HVDS_NO_KEY)
+                    for (int c = 0; c < 3; c++)
+                        r->fresh_acc[3 * (size_t)fb[t].d[i].key + c] = 0.0;
+            free(fb[t].d);
+        }
+        free(fb);
     }
     for (uint32_t k = 0; k < K; k++) {
         uint32_t p = h->key_parent[k];
@@ -723,6 +857,15 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
                "%zu of %zu photons after the entry points carry light (%.1f%%)",
                1e3 * (t0b - t0), 1e3 * (t1 - t0b), 1e3 * (t2 - t1), 1e3 * (t4 - t2), n_lit, n_later,
                n_later ? 100.0 * (double)n_lit / (double)n_later : 0.0);
+    if (fresh)
+        gi_verbose("fresh paths: %u from %zu lit diffuse entry points, %zu photons summed into keys (%zu found no "
+                   "key), %.1f ms",
+                   r->fresh_paths, fresh_lit, r->fresh_deposits, r->fresh_lost, 1e3 * (t2 - t1b));
+    if (fresh)
+        gi_verbose("fresh paths: traced by %.1f ms; effective sample sizes %.0f (.gip) and %.0f (fresh): weights "
+                   "%.3f and %.3f",
+                   1e3 * (r->fresh_t_keys - t1b), r->fresh_ess[0], r->fresh_ess[1], r->fresh_alpha,
+                   1.0 - r->fresh_alpha);
     r->times.entry = t1 - t0;
     r->times.photons = t2 - t1;
     r->times.hvds = t4 - t2;
@@ -824,7 +967,7 @@ int gi_relight_prepare_keys(gi_relight *r, gi_status *st)
         ks->id = kpack(kcoord(r, ks->pos[0]), kcoord(r, ks->pos[1]), kcoord(r, ks->pos[2]));
         uint32_t k = h->photon_key[p];
         ks->key = k == GI_HVDS_NO_KEY ? k : klift[k];
-        ks->pad = 0;
+        ks->fine = k;
     }
     gi_verbose("photon grid: buckets %.1f ms, places %.1f ms, slots %.1f ms", 1e3 * (tg1 - tg0), 1e3 * (tg2 - tg1), 1e3 * (gi_now() - tg2));
     free(fill);
@@ -920,7 +1063,7 @@ static int knear_cells(const gi_relight *r, const int64_t c[3], const float p[3]
  * so the answers are the same. */
 enum { KBATCH = 16 };
 
-static void keys_at_batch(const gi_relight *r, int n, const float *p, const float *nrm, uint32_t *out)
+static void keys_at_batch(const gi_relight *r, int n, const float *p, const float *nrm, uint32_t *out, int fine)
 {
     int64_t c[KBATCH][3];
     uint32_t b[KBATCH], bp[KBATCH];
@@ -955,8 +1098,175 @@ static void keys_at_batch(const gi_relight *r, int n, const float *p, const floa
         for (int j = 0; j < nn[i]; j++)
             if (ng[i][j] < best[i])
                 kscan(r, nb[i][j][0], nb[i][j][1], nb[i][j][2], p + 3 * i, nrm + 3 * i, &best[i], &bp[i]);
-        out[i] = bp[i] == UINT32_MAX ? GI_HVDS_NO_KEY : r->kslot[bp[i]].key;
+        out[i] = bp[i] == UINT32_MAX ? GI_HVDS_NO_KEY : fine ? r->kslot[bp[i]].fine : r->kslot[bp[i]].key;
     }
+}
+
+void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n) { r->fresh_paths = n; }
+
+void gi_relight_fresh_stats(const gi_relight *r, double ess[2], double *alpha, size_t *photons)
+{
+    ess[0] = r->fresh_ess[0];
+    ess[1] = r->fresh_ess[1];
+    *alpha = r->fresh_alpha;
+    *photons = r->fresh_deposits;
+}
+
+static int fbuf_push(fbuf *b, gi_vec3 p, gi_vec3 n, gi_vec3 f)
+{
+    if (b->n == b->cap) {
+        size_t cap = b->cap ? 2 * b->cap : 4096;
+        struct fdep *d = realloc(b->d, cap * sizeof *d);
+        if (!d) {
+            b->failed = 1;
+            return -1;
+        }
+        b->d = d;
+        b->cap = cap;
+    }
+    struct fdep *x = &b->d[b->n++];
+    gi_v3store(x->p, p);
+    gi_v3store(x->n, n);
+    gi_v3store(x->f, f);
+    x->key = GI_HVDS_NO_KEY;
+    return 0;
+}
+
+/* Step 2b, fresh paths: r->fresh_paths paths from the diffuse entry points,
+ * each chosen with probability in proportion to the luminance of its flux
+ * (systematic sampling: an entry point with k times the mean flux per path
+ * starts about k of them), so that every path carries the same luminance.
+ * They leave in a cosine-distributed direction, are traced through the
+ * scene's current materials (BSDF sampling, the precompute's Russian
+ * roulette) and every vertex's outgoing flux is summed into the finest key
+ * of the nearest precomputed photon. The paths of the .gip know nothing of
+ * the lights: under a low sun 2.2% of them carry light (README, "Session
+ * 42"), and the later bounces come from few photons of very unequal flux.
+ * Thread t traces a contiguous range of paths in order (static schedule),
+ * so the buffers read in thread order list the photons in path order
+ * whatever the thread count. Path j takes the same random numbers in every
+ * light state, so that a light moved a little moves the photons little. */
+static int fresh_trace(gi_relight *r, fbuf *bufs, size_t *nlit, gi_status *st)
+{
+    const gi_gip *g = r->gip;
+    const gi_scene *s = r->s;
+    const uint32_t NE = g->num_entries, M = r->fresh_paths;
+    if (!r->fresh_cdf && !(r->fresh_cdf = gi_alloc_large(((size_t)NE + 1) * sizeof *r->fresh_cdf)))
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    double *cdf = r->fresh_cdf;
+    cdf[0] = 0.0;
+    size_t lit = 0;
+#pragma omp parallel for schedule(static) num_threads(r->threads) reduction(+ : lit)
+    for (uint32_t e = 0; e < NE; e++) {
+        double l = 0.0;
+        if (r->entry_fd[3 * (size_t)e] >= 0.0f) {
+            const float *f = r->flux + 3 * g->path_start[e];
+            l = 0.2126 * f[0] + 0.7152 * f[1] + 0.0722 * f[2];
+            l = l > 0.0 ? l : 0.0;
+        }
+        lit += l > 0.0;
+        cdf[e + 1] = l;
+    }
+    for (uint32_t e = 0; e < NE; e++)
+        cdf[e + 1] += cdf[e];
+    *nlit = lit;
+    const double S = cdf[NE];
+    if (!(S > 0.0) || !M)
+        return 0;
+    gi_rng r0;
+    gi_rng_seed(&r0, r->seed, 0x66726573ULL, 0);
+    const double xi = gi_rng_double(&r0);
+#pragma omp parallel num_threads(r->threads)
+    {
+        gi_rt_thread_init();
+        fbuf *b = &bufs[omp_get_thread_num()];
+#pragma omp for schedule(static)
+        for (uint32_t j = 0; j < M; j++) {
+            if (b->failed)
+                continue;
+            double u = ((double)j + xi) / (double)M * S;
+            uint32_t lo = 0, hi = NE;
+            while (hi - lo > 1) {
+                uint32_t mid = lo + (hi - lo) / 2;
+                if (cdf[mid] <= u)
+                    lo = mid;
+                else
+                    hi = mid;
+            }
+            const uint32_t e = lo;
+            const uint64_t v0 = g->path_start[e];
+            const double le = cdf[e + 1] - cdf[e];
+            if (!(le > 0.0))
+                continue;
+            gi_vec3 phi = gi_scale(gi_v3p(r->flux + 3 * v0), (float)(S / ((double)M * le)));
+            gi_surface sf;
+            gi_scene_surface(s, g->tri[v0], g->bary[2 * v0], g->bary[2 * v0 + 1], &sf);
+            gi_vec3 ng = g->side[v0] ? gi_neg(sf.ng) : sf.ng;
+            gi_vec3 ns = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
+            gi_rng rng;
+            gi_rng_seed(&rng, r->seed, j, 0x46524553ULL);
+            float u1 = gi_rng_float(&rng), u2 = gi_rng_float(&rng);
+            gi_vec3 wo = gi_sample_cosine(ns, u1, u2);
+            if (gi_dot(wo, ng) <= 0.0f)
+                continue;
+            gi_vec3 p = sf.p;
+            for (int k = 1; k < 64; k++) {
+                gi_hit hit;
+                if (!gi_rt_intersect(r->rt, gi_rt_offset(p, ng, wo), wo, 0.0f, INFINITY, &hit))
+                    break;
+                gi_rt_surface(r->rt, &hit, &sf);
+                gi_vec3 wi = gi_neg(wo);
+                const gi_material *m = &r->mats[sf.material];
+                int front = gi_dot(sf.ng, wi) > 0.0f;
+                if (!front && !m->double_sided)
+                    break;
+                ng = front ? sf.ng : gi_neg(sf.ng);
+                ns = gi_dot(sf.ns, ng) < 0.0f ? gi_neg(sf.ns) : sf.ns;
+                gi_vec3 nk = ns; /* the normal a photon here is binned by (gi_gip_vertex) */
+                if (gi_dot(ns, wi) <= 0.0f)
+                    ns = ng;
+                float bc[3];
+                gi_scene_base_color(s, m, sf.uv0, sf.uv1, bc);
+                gi_bsdf bsdf;
+                gi_bsdf_init(&bsdf, m, gi_v3p(bc));
+                float q = gi_clampf(gi_maxc(gi_bsdf_max_albedo(&bsdf)), GI_PHOTON_Q_MIN, GI_PHOTON_Q_MAX);
+                if (gi_rng_float(&rng) >= q)
+                    break;
+                gi_vec3 wgt;
+                float pdf;
+                u1 = gi_rng_float(&rng);
+                u2 = gi_rng_float(&rng);
+                if (!gi_bsdf_sample(&bsdf, ns, wi, u1, u2, gi_rng_float(&rng), &wo, &wgt, &pdf))
+                    break;
+                phi = gi_mul(phi, gi_scale(wgt, 1.0f / q));
+                if (fbuf_push(b, sf.p, nk, phi))
+                    break;
+                p = sf.p;
+                if (gi_dot(wo, ng) <= 0.0f)
+                    break;
+            }
+        }
+        /* the keys, in batches (gi_relight_keys_at) */
+#pragma omp barrier
+#pragma omp master
+        r->fresh_t_keys = gi_now();
+        for (size_t i = 0; i < b->n && !b->failed; i += KBATCH) {
+            int nb = b->n - i < KBATCH ? (int)(b->n - i) : KBATCH;
+            float pp[3 * KBATCH], nn[3 * KBATCH];
+            uint32_t kk[KBATCH];
+            for (int q = 0; q < nb; q++) {
+                memcpy(pp + 3 * q, b->d[i + (size_t)q].p, sizeof b->d[0].p);
+                memcpy(nn + 3 * q, b->d[i + (size_t)q].n, sizeof b->d[0].n);
+            }
+            keys_at_batch(r, nb, pp, nn, kk, 1);
+            for (int q = 0; q < nb; q++)
+                b->d[i + (size_t)q].key = kk[q];
+        }
+    }
+    for (int t = 0; t < r->threads; t++)
+        if (bufs[t].failed)
+            return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    return 0;
 }
 
 void gi_relight_keys_at(const gi_relight *r, size_t n, const float *p, const float *nrm, uint32_t *out)
@@ -967,7 +1277,7 @@ void gi_relight_keys_at(const gi_relight *r, size_t n, const float *p, const flo
         return;
     }
     for (size_t i = 0; i < n; i += KBATCH)
-        keys_at_batch(r, n - i < KBATCH ? (int)(n - i) : KBATCH, p + 3 * i, nrm + 3 * i, out + i);
+        keys_at_batch(r, n - i < KBATCH ? (int)(n - i) : KBATCH, p + 3 * i, nrm + 3 * i, out + i, 0);
 }
 
 float gi_relight_key_cell(const gi_relight *r) { return r->kb_start ? r->kcell : 0.0f; }

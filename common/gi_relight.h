@@ -65,6 +65,19 @@ void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3]);
  * Default GI_RELIGHT_LIFT_CAP (lift_scale in gi_relight.c says why). */
 #define GI_RELIGHT_LIFT_CAP 1.5f
 void gi_relight_set_lift_cap(gi_relight *r, float cap);
+/* Fresh paths: with n > 0, each gi_relight_set_lights traces n photon paths
+ * from the diffuse entry points that the lights reach, chosen in proportion
+ * to their flux, through the current materials, and sums them into the
+ * keys in place of those entry points' precomputed later vertices (the
+ * glossy entry points keep theirs). Needs the photon grid
+ * (gi_relight_prepare_keys, which it calls). 0 (default): off. */
+void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n);
+/* Of the last gi_relight_set_lights with fresh paths: the effective sample
+ * sizes (sum w)^2 / sum w^2 of the luminance of the .gip's later photons
+ * of diffuse entries (ess[0]) and of the fresh photons (ess[1]), the weight
+ * alpha = ess[0] / (ess[0] + ess[1]) of the former (1 - alpha the latter's),
+ * and how many fresh photons were summed into keys. */
+void gi_relight_fresh_stats(const gi_relight *r, double ess[2], double *alpha, size_t *photons);
 /* Per gathering point, 9 floats: for each of R, G, B the tangential part b_t
  * (cd/m^2 per unit direction) of a linear fit L(w) = E / pi + b_t . w of the
  * incident radiance, from the mean ray direction of each (key, count) pair

@@ -80,8 +80,14 @@ static void help(void)
            "                          field)\n"
            "  --lift-cap C            a gathering point's rays that --key-photons lifted to a coarser\n"
            "                          key read their later bounces there at most C times the mean of\n"
-           "                          its other rays (default 1.5; 0: as the key holds them)\n"
-           );
+           "                          its other rays (default 1.5; 0: as the key holds them)\n");
+    fputs("  --fresh-paths N         at every light change, trace N photon paths from the lit\n"
+           "                          entry points, chosen in proportion to their flux, and weigh\n"
+           "                          them with the .gip's later bounces by effective sample size:\n"
+           "                          less noise where the light is uneven (a lamp near a wall, a\n"
+           "                          spot), for 0.6-2 ms per 1000 paths on 2 cores; for final\n"
+           "                          frames (default 0: off)\n",
+          stdout);
     fputs("  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
            "                          weighted mean, half a weighted linear fit (default), or the mean\n"
            "  --tex-filter on|off     average textures over each sample's pixel footprint (default on)\n"
@@ -98,7 +104,7 @@ static void help(void)
            "scene), 4 system failure\n", stdout);
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR, OPT_NSTRIDE, OPT_LCAP };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR, OPT_NSTRIDE, OPT_LCAP, OPT_FRESH };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
@@ -186,6 +192,7 @@ int main(int argc, char **argv)
         {"glossy-rays", required_argument, 0, OPT_GRAYS}, {"glossy-min-ks", required_argument, 0, OPT_GMINKS}, {"glossy-stride", required_argument, 0, OPT_GSTRIDE}, {"interp", required_argument, 0, OPT_INTERP},
         {"near-field", required_argument, 0, OPT_NEAR},
         {"near-stride", required_argument, 0, OPT_NSTRIDE}, {"lift-cap", required_argument, 0, OPT_LCAP},
+        {"fresh-paths", required_argument, 0, OPT_FRESH},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
@@ -193,6 +200,7 @@ int main(int argc, char **argv)
     const char *outdir = NULL, *frames = NULL, *timings = NULL;
     int png = 0, gpts = 0, threads = 0, c;
     float ev = 0.0f, lift_cap = GI_RELIGHT_LIFT_CAP;
+    long fresh_paths = 0;
     gi_shade_opts so;
     gi_shade_opts_default(&so);
     opterr = 0;
@@ -219,6 +227,7 @@ int main(int argc, char **argv)
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
         case OPT_GMINKS: so.glossy_min_ks = (float)gi_opt_double("--glossy-min-ks", optarg, 0.0, 1.0); break;
         case OPT_GSTRIDE: so.glossy_stride = (int)gi_opt_long("--glossy-stride", optarg, 1, 4); break;
+        case OPT_FRESH: fresh_paths = gi_opt_long("--fresh-paths", optarg, 0, 1L << 26); break;
         case OPT_LCAP:
             lift_cap = (float)gi_opt_double("--lift-cap", optarg, 0.0, 1e6);
             break;
@@ -367,6 +376,8 @@ int main(int argc, char **argv)
         rc = gi_relight_new(s, rt, gip, h, threads, so.seed, &rl, &st);
     if (!rc)
         gi_relight_set_lift_cap(rl, lift_cap);
+    if (!rc)
+        gi_relight_set_fresh_paths(rl, (uint32_t)fresh_paths);
     so.gather_ctx = rl;
     if (!rc)
         rc = gi_gbuffer_new(s, &gb, &st);
