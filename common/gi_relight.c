@@ -1450,10 +1450,12 @@ const float *gi_relight_gpoint_gradient(gi_relight *r)
     gi_relight_gather(r, NULL, 0);
     return r->any_glossy ? r->gp_t : NULL;
 }
-void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3])
+void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3], float *later_out)
 {
     const gi_hvds *h = r->h;
     out[0] = out[1] = out[2] = 0.0f;
+    if (later_out)
+        *later_out = 0.0f;
     if (!r->key_mid || i >= h->num_gpoints)
         return;
     const gi_gpoint *gp = &h->gpoints[i];
@@ -1465,6 +1467,8 @@ void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3])
     float f = lift_scale(r, i, (float)later, l1);
     for (int c = 0; c < 3; c++)
         out[c] = f * l1[c];
+    if (later_out)
+        *later_out = (float)later + gi_luminance(gi_v3p(out));
 }
 const float *gi_relight_gpoint_irradiance_lazy(const gi_relight *r) { return r->gp_e; }
 const float *gi_relight_gpoint_gradient_lazy(const gi_relight *r) { return r->any_glossy ? r->gp_t : NULL; }

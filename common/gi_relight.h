@@ -57,9 +57,11 @@ const float *gi_relight_gpoint_irradiance(gi_relight *r);
 /* The part of gathering point i's indirect irradiance (lux, RGB, into out)
  * that its lifted rays read as later bounces from the coarser key that
  * --key-photons lifted them to (the .gih's split rays, GSPL; 0 without
- * them), after the lift cap below. For checking the points (gi-relight
- * --gpoints), after gi_relight_gpoint_irradiance. */
-void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3]);
+ * them), after the lift cap below; and, into *later (NULL: not wanted),
+ * the luminance of all its later bounces (light that left the photons after
+ * the entry points, lifted or not; 0 without a split .gih). For checking the
+ * points (gi-relight --gpoints), after gi_relight_gpoint_irradiance. */
+void gi_relight_gpoint_lifted(const gi_relight *r, uint32_t i, float out[3], float *later);
 /* Hold the later bounces that a point's lifted rays read to cap times the
  * mean of its other rays' (per ray; applied from the next gather; 0: off).
  * Default GI_RELIGHT_LIFT_CAP (lift_scale in gi_relight.c says why). */

@@ -154,16 +154,16 @@ static int write_gpoints(const char *path, const gi_relight *rl, const gi_hvds *
         return gi_status_errno(st, GI_EXIT_SYSTEM, "%s: cannot create", tmp);
     fprintf(f, "# gi-relight gathering points of frame '%s': %u points\n"
                "# x y z (m)  nx ny nz  # E_lux (luminance of the indirect illuminance)  E_r E_g E_b  radius_m  index"
-               "  lifted_lux (of E_lux, read as later bounces from lifted keys)\n",
+               "  lifted_lux (of E_lux, read as later bounces from lifted keys)  later_lux (of E_lux, all later bounces)\n",
             frame, h->num_gpoints);
     for (uint32_t i = 0; i < h->num_gpoints; i++) {
         const gi_gpoint *g = &h->gpoints[i];
         const float *x = e + 3 * (size_t)i;
-        float lf[3];
-        gi_relight_gpoint_lifted(rl, i, lf);
-        fprintf(f, "%.7g %.7g %.7g %.6f %.6f %.6f # %.6g %.6g %.6g %.6g %.4g %u %.6g\n", g->pos[0], g->pos[1], g->pos[2],
+        float lf[3], later;
+        gi_relight_gpoint_lifted(rl, i, lf, &later);
+        fprintf(f, "%.7g %.7g %.7g %.6f %.6f %.6f # %.6g %.6g %.6g %.6g %.4g %u %.6g %.6g\n", g->pos[0], g->pos[1], g->pos[2],
                 g->nrm[0], g->nrm[1], g->nrm[2], gi_luminance(gi_v3p(x)), x[0], x[1], x[2], g->radius, i,
-                gi_luminance(gi_v3p(lf)));
+                gi_luminance(gi_v3p(lf)), later);
     }
     int bad = ferror(f);
     if (fclose(f) || bad) {

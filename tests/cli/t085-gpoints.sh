@@ -21,8 +21,8 @@ G=$TMP/out/published.gpoints
 n=$(sed -n '1s/.*: \([0-9]*\) points$/\1/p' "$G")
 check "the header gives the number of points ($n) and one line follows per point" \
   [ -n "$n" ] && [ "$n" -gt 100 ] && [ "$(grep -vc '^#' "$G")" -eq "$n" ]
-check "every point line: 6 numbers, '#', irradiance (lux, RGB), radius, index in order, lifted part of E" \
-  awk '!/^#/ { if (NF != 14 || $7 != "#" || $8 < 0 || $12 <= 0 || $13 != i || $14 < 0 || $14 > $8 * 1.001 + 1e-6) bad = 1; i++ } END { exit bad }' "$G"
+check "every point line: 6 numbers, '#', irradiance (lux, RGB), radius, index in order, lifted part of E, later bounces (at least the lifted part, at most E)" \
+  awk '!/^#/ { if (NF != 15 || $7 != "#" || $8 < 0 || $12 <= 0 || $13 != i || $14 < 0 || $14 > $8 * 1.001 + 1e-6 || $15 < $14 * 0.999 - 1e-6 || $15 > $8 * 1.001 + 1e-6) bad = 1; i++ } END { exit bad }' "$G"
 check "no temporary file is left" [ -z "$(ls "$TMP/out" | grep -F .tmp.)" ]
 differ() { ! cmp -s "$1" "$2"; }
 check "the points' irradiance follows the light's move" differ "$G" "$TMP/out/point-lowered.gpoints"
@@ -43,5 +43,11 @@ for f in published panel; do
     awk -v r="$ratio" 'BEGIN { exit !(r >= 0.96 && r <= 1.04) }'
   check "$f: and point by point (rms error $rms of the mean <= 0.08, sensor noise included)" \
     awk -v r="$rms" 'BEGIN { exit !(r <= 0.08) }'
+  # the later bounces alone (column 15) against paths that bounced twice or more
+  expect_success "sensors read the light of two bounces or more at the points of $f" \
+    gi-compare sensors -q "$S" "$TMP/v.script" --frame "$f" --points "$TMP/p-$f.txt" --spp $spp --min-bounces 2
+  later=$(paste -d' ' "$TMP/p-$f.txt" "$TMP/stdout" | awk '{ e += $15; t += $(NF - 1) } END { printf "%.4f", e / t }')
+  check "$f: the points' later bounces are the path tracer's in sum (ratio $later in 0.93..1.07)" \
+    awk -v r="$later" 'BEGIN { exit !(r >= 0.93 && r <= 1.07) }'
 done
 finish

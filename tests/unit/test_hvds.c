@@ -278,7 +278,7 @@ static void test_lift_cap(void **state)
     assert_non_null(lf0);
     memcpy(e0, gi_relight_gpoint_irradiance(p.rl), 3 * (size_t)n * sizeof *e0);
     for (uint32_t i = 0; i < n; i++)
-        gi_relight_gpoint_lifted(p.rl, i, lf0 + 3 * (size_t)i);
+        gi_relight_gpoint_lifted(p.rl, i, lf0 + 3 * (size_t)i, NULL);
     gi_status st = {0};
     gi_relight_set_lift_cap(p.rl, 1.5f);
     assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
@@ -305,7 +305,7 @@ static void test_lift_cap(void **state)
         for (uint32_t j = j1; j < j1 + h->split_n1[i]; j++)
             nl += h->split_count[j];
         float lf[3];
-        gi_relight_gpoint_lifted(p.rl, i, lf);
+        gi_relight_gpoint_lifted(p.rl, i, lf, NULL);
         double l1 = gi_luminance(gi_v3p(lf)), raw = gi_luminance(gi_v3p(lf0 + 3 * (size_t)i));
         lifted_pts += nl > 0;
         if (nreg >= 64 && nl) {
