@@ -115,6 +115,8 @@ struct gi_relight {
      * paths traced from the lit diffuse entry points, chosen in proportion
      * to their flux, weighed with those entries' .gip later vertices */
     uint32_t fresh_paths;
+    uint32_t fresh_target; /* gi_relight_set_fresh_auto: the effective sample size aimed at (0: fixed count) */
+    uint32_t fresh_used;   /* paths traced for the current light state */
     double *fresh_acc;    /* 3 per key, zero between light states */
     double *fresh_cdf;    /* per entry + 1: the running sum of the diffuse entries' flux luminance */
     size_t fresh_deposits, fresh_lost;
@@ -437,7 +439,8 @@ int gi_relight_set_materials(gi_relight *r, const gi_material *mats, const unsig
     return 0;
 }
 
-static int fresh_trace(gi_relight *r, fbuf *bufs, size_t *nlit, gi_status *st);
+static int fresh_trace(gi_relight *r, fbuf *bufs, uint32_t M, int new_cdf, size_t *nlit, gi_status *st);
+static double fresh_ess_of(const fbuf *fb, int threads);
 
 int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int area_samples, gi_status *st)
 {
@@ -659,7 +662,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     r->rays_seconds = t0b - t0;
     double t1 = gi_now();
     /* 2. along the paths */
-    const int fresh = r->fresh_paths > 0;
+    const int fresh = r->fresh_paths > 0 || r->fresh_target > 0;
     if (fresh) {
         if (gi_relight_prepare_keys(r, st))
             return st->code;
@@ -699,6 +702,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     fbuf *fb = NULL;
     size_t fresh_lit = 0;
     r->fresh_deposits = r->fresh_lost = 0;
+    r->fresh_used = 0;
     r->fresh_alpha = 1.0;
     r->fresh_ess[0] = r->fresh_ess[1] = 0.0;
     if (fresh) {
@@ -710,29 +714,38 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         free(esum);
         if (!(fb = calloc((size_t)r->threads, sizeof *fb)))
             return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
-        int frc = fresh_trace(r, fb, &fresh_lit, st);
+        /* a fixed count, or (gi_relight_set_fresh_auto) a pilot whose
+         * effective sample size per path says how many paths bring the
+         * two estimates together to the target: then that many, traced
+         * anew (systematic sampling spreads any count over all the lit
+         * entries, so the pilot's paths are not the first ones of more) */
+        const double essp = p2 > 0.0 ? p1 * p1 / p2 : 0.0;
+        uint32_t M = r->fresh_target ? GI_RELIGHT_FRESH_PILOT : r->fresh_paths;
+        int frc = fresh_trace(r, fb, M, 1, &fresh_lit, st);
+        double essf = frc ? 0.0 : fresh_ess_of(fb, r->threads);
+        if (!frc && r->fresh_target && essp + essf < (double)r->fresh_target && essf > 0.0) {
+            double need = ((double)r->fresh_target - essp) / (essf / (double)M);
+            uint32_t m = need >= (double)GI_RELIGHT_FRESH_MAX ? GI_RELIGHT_FRESH_MAX : (uint32_t)ceil(need);
+            if (m > M) {
+                for (int t = 0; t < r->threads; t++)
+                    fb[t].n = 0;
+                M = m;
+                frc = fresh_trace(r, fb, M, 0, &fresh_lit, st);
+                essf = frc ? 0.0 : fresh_ess_of(fb, r->threads);
+            }
+        }
         if (frc) {
             for (int t = 0; t < r->threads; t++)
                 free(fb[t].d);
             free(fb);
             return frc;
         }
+        r->fresh_used = M;
         /* two estimates of the same later bounces, weighed by their
          * effective sample sizes (sum w)^2 / sum w^2, inversely to their
          * variance: the .gip's photons of diffuse entries (few carry light,
          * and their flux can span orders of magnitude, as beside a lamp
          * close to a wall) and the fresh ones (about equal flux each) */
-        double f1 = 0.0, f2 = 0.0;
-        for (int t = 0; t < r->threads; t++)
-            for (size_t i = 0; i < fb[t].n; i++) {
-                const struct fdep *d = &fb[t].d[i];
-                if (d->key == GI_HVDS_NO_KEY)
-                    continue;
-                double l = 0.2126 * d->f[0] + 0.7152 * d->f[1] + 0.0722 * d->f[2];
-                f1 += l;
-                f2 += l * l;
-            }
-        double essp = p2 > 0.0 ? p1 * p1 / p2 : 0.0, essf = f2 > 0.0 ? f1 * f1 / f2 : 0.0;
         r->fresh_ess[0] = essp;
         r->fresh_ess[1] = essf;
         r->fresh_alpha = essp + essf > 0.0 ? essp / (essp + essf) : 1.0;
@@ -860,7 +873,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
     if (fresh)
         gi_verbose("fresh paths: %u from %zu lit diffuse entry points, %zu photons summed into keys (%zu found no "
                    "key), %.1f ms",
-                   r->fresh_paths, fresh_lit, r->fresh_deposits, r->fresh_lost, 1e3 * (t2 - t1b));
+                   r->fresh_used, fresh_lit, r->fresh_deposits, r->fresh_lost, 1e3 * (t2 - t1b));
     if (fresh)
         gi_verbose("fresh paths: traced by %.1f ms; effective sample sizes %.0f (.gip) and %.0f (fresh): weights "
                    "%.3f and %.3f",
@@ -1102,7 +1115,17 @@ static void keys_at_batch(const gi_relight *r, int n, const float *p, const floa
     }
 }
 
-void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n) { r->fresh_paths = n; }
+void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n)
+{
+    r->fresh_paths = n;
+    r->fresh_target = 0;
+}
+void gi_relight_set_fresh_auto(gi_relight *r, uint32_t target)
+{
+    r->fresh_target = target;
+    r->fresh_paths = 0;
+}
+uint32_t gi_relight_fresh_used(const gi_relight *r) { return r->fresh_used; }
 
 void gi_relight_fresh_stats(const gi_relight *r, double ess[2], double *alpha, size_t *photons)
 {
@@ -1146,13 +1169,27 @@ static int fbuf_push(fbuf *b, gi_vec3 p, gi_vec3 n, gi_vec3 f)
  * so the buffers read in thread order list the photons in path order
  * whatever the thread count. Path j takes the same random numbers in every
  * light state, so that a light moved a little moves the photons little. */
-static int fresh_trace(gi_relight *r, fbuf *bufs, size_t *nlit, gi_status *st)
+static double fresh_ess_of(const fbuf *fb, int threads)
+{
+    double f1 = 0.0, f2 = 0.0;
+    for (int t = 0; t < threads; t++)
+        for (size_t i = 0; i < fb[t].n; i++) {
+            const struct fdep *d = &fb[t].d[i];
+            if (d->key == GI_HVDS_NO_KEY)
+                continue;
+            double l = 0.2126 * d->f[0] + 0.7152 * d->f[1] + 0.0722 * d->f[2];
+            f1 += l;
+            f2 += l * l;
+        }
+    return f2 > 0.0 ? f1 * f1 / f2 : 0.0;
+}
+
+/* The running sum of the diffuse entries' flux luminance (r->fresh_cdf);
+ * *nlit: how many are lit. */
+static void fresh_cdf_build(gi_relight *r, size_t *nlit)
 {
     const gi_gip *g = r->gip;
-    const gi_scene *s = r->s;
-    const uint32_t NE = g->num_entries, M = r->fresh_paths;
-    if (!r->fresh_cdf && !(r->fresh_cdf = gi_alloc_large(((size_t)NE + 1) * sizeof *r->fresh_cdf)))
-        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    const uint32_t NE = g->num_entries;
     double *cdf = r->fresh_cdf;
     cdf[0] = 0.0;
     size_t lit = 0;
@@ -1170,6 +1207,18 @@ static int fresh_trace(gi_relight *r, fbuf *bufs, size_t *nlit, gi_status *st)
     for (uint32_t e = 0; e < NE; e++)
         cdf[e + 1] += cdf[e];
     *nlit = lit;
+}
+
+static int fresh_trace(gi_relight *r, fbuf *bufs, uint32_t M, int new_cdf, size_t *nlit, gi_status *st)
+{
+    const gi_gip *g = r->gip;
+    const gi_scene *s = r->s;
+    const uint32_t NE = g->num_entries;
+    if (!r->fresh_cdf && !(r->fresh_cdf = gi_alloc_large(((size_t)NE + 1) * sizeof *r->fresh_cdf)))
+        return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for fresh paths");
+    const double *cdf = r->fresh_cdf;
+    if (new_cdf)
+        fresh_cdf_build(r, nlit);
     const double S = cdf[NE];
     if (!(S > 0.0) || !M)
         return 0;

@@ -70,10 +70,25 @@ void gi_relight_set_lift_cap(gi_relight *r, float cap);
 /* Fresh paths: with n > 0, each gi_relight_set_lights traces n photon paths
  * from the diffuse entry points that the lights reach, chosen in proportion
  * to their flux, through the current materials, and sums them into the
- * keys in place of those entry points' precomputed later vertices (the
- * glossy entry points keep theirs). Needs the photon grid
- * (gi_relight_prepare_keys, which it calls). 0 (default): off. */
+ * keys, weighed against those entry points' precomputed later vertices by
+ * effective sample size (the glossy entry points keep theirs). Needs the
+ * photon grid (gi_relight_prepare_keys, which it calls). 0 (default): off.
+ * Ends gi_relight_set_fresh_auto. */
 void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n);
+/* Fresh paths, as many as it takes: with target > 0, each
+ * gi_relight_set_lights traces a pilot of GI_RELIGHT_FRESH_PILOT paths; if
+ * the .gip's later photons and the pilot's together fall short of an
+ * effective sample size of target, it traces as many paths as the pilot's
+ * yield per path says reach it (at most GI_RELIGHT_FRESH_MAX), in place of
+ * the pilot. Under a low sun most paths leave the scene and the .gip's
+ * later photons are few (Sponza u6: 5,305), so that is ~10^6 paths there
+ * and the pilot alone beside a lamp. 0: off. Ends gi_relight_set_fresh_paths. */
+void gi_relight_set_fresh_auto(gi_relight *r, uint32_t target);
+#define GI_RELIGHT_FRESH_AUTO 65536u
+#define GI_RELIGHT_FRESH_PILOT 16384u
+#define GI_RELIGHT_FRESH_MAX 4194304u
+/* The paths traced for the last light state (0: none). */
+uint32_t gi_relight_fresh_used(const gi_relight *r);
 /* Of the last gi_relight_set_lights with fresh paths: the effective sample
  * sizes (sum w)^2 / sum w^2 of the luminance of the .gip's later photons
  * of diffuse entries (ess[0]) and of the fresh photons (ess[1]), the weight

@@ -81,12 +81,15 @@ static void help(void)
            "  --lift-cap C            a gathering point's rays that --key-photons lifted to a coarser\n"
            "                          key read their later bounces there at most C times the mean of\n"
            "                          its other rays (default 1.5; 0: as the key holds them)\n");
-    fputs("  --fresh-paths N         at every light change, trace N photon paths from the lit\n"
+    fputs("  --fresh-paths N|auto    at every light change, trace N photon paths from the lit\n"
            "                          entry points, chosen in proportion to their flux, and weigh\n"
            "                          them with the .gip's later bounces by effective sample size:\n"
            "                          less noise where the light is uneven (a lamp near a wall, a\n"
-           "                          spot), for 0.6-2 ms per 1000 paths on 2 cores; for final\n"
-           "                          frames (default 0: off)\n",
+           "                          spot, a low sun), for 0.6-2 ms per 1000 paths on 2 cores;\n"
+           "                          for final frames. auto: a pilot of 16384 paths, then as\n"
+           "                          many as reach an effective sample size of 65536 with the\n"
+           "                          .gip's (at most 4194304; ~1 M under Sponza's low sun, the\n"
+           "                          pilot alone beside a lamp) (default 0: off)\n",
           stdout);
     fputs("  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
            "                          weighted mean, half a weighted linear fit (default), or the mean\n"
@@ -227,7 +230,9 @@ int main(int argc, char **argv)
         case OPT_GRAYS: so.glossy_rays = (int)gi_opt_long("--glossy-rays", optarg, 0, 1024); break;
         case OPT_GMINKS: so.glossy_min_ks = (float)gi_opt_double("--glossy-min-ks", optarg, 0.0, 1.0); break;
         case OPT_GSTRIDE: so.glossy_stride = (int)gi_opt_long("--glossy-stride", optarg, 1, 4); break;
-        case OPT_FRESH: fresh_paths = gi_opt_long("--fresh-paths", optarg, 0, 1L << 26); break;
+        case OPT_FRESH:
+            fresh_paths = !strcmp(optarg, "auto") ? -1 : gi_opt_long("--fresh-paths", optarg, 0, 1L << 26);
+            break;
         case OPT_LCAP:
             lift_cap = (float)gi_opt_double("--lift-cap", optarg, 0.0, 1e6);
             break;
@@ -376,7 +381,9 @@ int main(int argc, char **argv)
         rc = gi_relight_new(s, rt, gip, h, threads, so.seed, &rl, &st);
     if (!rc)
         gi_relight_set_lift_cap(rl, lift_cap);
-    if (!rc)
+    if (!rc && fresh_paths < 0)
+        gi_relight_set_fresh_auto(rl, GI_RELIGHT_FRESH_AUTO);
+    else if (!rc)
         gi_relight_set_fresh_paths(rl, (uint32_t)fresh_paths);
     so.gather_ctx = rl;
     if (!rc)

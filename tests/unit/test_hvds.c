@@ -779,6 +779,29 @@ static void test_fresh_paths(void **state)
     assert_true(err1 < 0.12);
     assert_true(fabs(flux1 - flux0) < 0.03 * flux0);
     assert_memory_equal(e1, e2, 3 * (size_t)n * sizeof *e1);
+    /* auto: the pilot alone where it reaches the target with the .gip's,
+     * else as many paths as its yield says reach it */
+    gi_relight_set_fresh_auto(p.rl, 10000);
+    assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
+    gi_relight_fresh_stats(p.rl, ess, &alpha, &nf);
+    uint32_t used_lo = gi_relight_fresh_used(p.rl);
+    double ess_lo = ess[0] + ess[1];
+    gi_relight_set_fresh_auto(p.rl, 60000);
+    assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
+    gi_relight_fresh_stats(p.rl, ess, &alpha, &nf);
+    uint32_t used_hi = gi_relight_fresh_used(p.rl);
+    double flux2 = later_flux_total(&p);
+    print_message("fresh paths, auto: target 10000: %u paths, effective sample size %.0f; target 60000: %u paths, "
+                  "%.0f (%.0f + %.0f); later flux %.5g\n", used_lo, ess_lo, used_hi, ess[0] + ess[1], ess[0], ess[1],
+                  flux2);
+    assert_int_equal(used_lo, GI_RELIGHT_FRESH_PILOT);
+    assert_true(ess_lo >= 10000.0);
+    assert_true(used_hi > GI_RELIGHT_FRESH_PILOT && used_hi < GI_RELIGHT_FRESH_MAX);
+    assert_true(ess[0] + ess[1] > 0.85 * 60000.0 && ess[0] + ess[1] < 1.3 * 60000.0);
+    assert_true(fabs(flux2 - flux0) < 0.03 * flux0);
+    gi_relight_set_fresh_paths(p.rl, 0); /* a count ends auto */
+    assert_int_equal(gi_relight_set_lights(p.rl, &l, 1, 4, &st), 0);
+    assert_int_equal(gi_relight_fresh_used(p.rl), 0);
     gi_relight_free(r1);
     free(e2);
     pipe_free(&p);
