@@ -1229,19 +1229,28 @@ static int fresh_trace(gi_relight *r, fbuf *bufs, uint32_t M, int new_cdf, size_
     {
         gi_rt_thread_init();
         fbuf *b = &bufs[omp_get_thread_num()];
+        uint32_t lo = UINT32_MAX; /* the entry of the thread's last path */
 #pragma omp for schedule(static)
         for (uint32_t j = 0; j < M; j++) {
             if (b->failed)
                 continue;
             double u = ((double)j + xi) / (double)M * S;
-            uint32_t lo = 0, hi = NE;
-            while (hi - lo > 1) {
-                uint32_t mid = lo + (hi - lo) / 2;
-                if (cdf[mid] <= u)
-                    lo = mid;
-                else
-                    hi = mid;
-            }
+            /* the last entry e with cdf[e] <= u: a binary search for the
+             * thread's first path, then forward, as u grows with j (the
+             * search had been 70% of this loop's own time) */
+            if (lo == UINT32_MAX) {
+                uint32_t hi = NE;
+                lo = 0;
+                while (hi - lo > 1) {
+                    uint32_t mid = lo + (hi - lo) / 2;
+                    if (cdf[mid] <= u)
+                        lo = mid;
+                    else
+                        hi = mid;
+                }
+            } else
+                while (lo + 1 < NE && cdf[lo + 1] <= u)
+                    lo++;
             const uint32_t e = lo;
             const uint64_t v0 = g->path_start[e];
             const double le = cdf[e + 1] - cdf[e];

@@ -84,7 +84,7 @@ void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n);
  * later photons are few (Sponza u6: 5,305), so that is ~10^6 paths there
  * and the pilot alone beside a lamp. 0: off. Ends gi_relight_set_fresh_paths. */
 void gi_relight_set_fresh_auto(gi_relight *r, uint32_t target);
-#define GI_RELIGHT_FRESH_AUTO 65536u
+#define GI_RELIGHT_FRESH_AUTO 131072u
 #define GI_RELIGHT_FRESH_PILOT 16384u
 #define GI_RELIGHT_FRESH_MAX 4194304u
 /* The paths traced for the last light state (0: none). */

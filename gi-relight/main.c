@@ -87,7 +87,7 @@ static void help(void)
            "                          less noise where the light is uneven (a lamp near a wall, a\n"
            "                          spot, a low sun), for 0.6-2 ms per 1000 paths on 2 cores;\n"
            "                          for final frames. auto: a pilot of 16384 paths, then as\n"
-           "                          many as reach an effective sample size of 65536 with the\n"
+           "                          many as reach an effective sample size of 131072 with the\n"
            "                          .gip's (at most 4194304; ~1 M under Sponza's low sun, the\n"
            "                          pilot alone beside a lamp) (default 0: off)\n",
           stdout);

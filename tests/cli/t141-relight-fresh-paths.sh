@@ -42,14 +42,14 @@ for f in spot-wall lamp-by-wall; do
     awk -v a="$e" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.05) }'
 done
 # auto: a pilot of 16384 paths, then as many as its yield says reach an effective sample
-# size of 65536 with the .gip's (this small .gip's later photons fall far short of it)
+# size of 131072 with the .gip's (this small .gip's later photons fall far short of it)
 expect_success "relight, --fresh-paths auto, 2 threads, -v" R -v -o "$TMP/auto2" --fresh-paths auto -j 2
 n_auto=$(grep -E "^gi-relight: fresh paths: [0-9]+ from" "$TMP/stderr" | sed -E 's/.*fresh paths: ([0-9]+) from.*/\1/' | tr '\n' ' ')
 check "auto traces more than the pilot under both lights ($n_auto)" \
   awk -v s="$n_auto" 'BEGIN { n = split(s, a, " "); exit !(n == 2 && a[1] > 16384 && a[2] > 16384 && a[1] <= 4194304) }'
 ess=$(grep -E "effective sample sizes" "$TMP/stderr" | sed -E 's/.*sample sizes ([0-9]+) \(.gip\) and ([0-9]+) \(fresh\).*/\1 \2/' | tr '\n' ' ')
-check "and reaches about 65536 together with the .gip's ($ess)" \
-  awk -v s="$ess" 'BEGIN { split(s, a, " "); for (i = 1; i <= 4; i += 2) { t = a[i] + a[i + 1]; if (!(t > 0.8 * 65536 && t < 1.3 * 65536)) exit 1 } }'
+check "and reaches about 131072 together with the .gip's ($ess)" \
+  awk -v s="$ess" 'BEGIN { split(s, a, " "); for (i = 1; i <= 4; i += 2) { t = a[i] + a[i + 1]; if (!(t > 0.8 * 131072 && t < 1.3 * 131072)) exit 1 } }'
 expect_success "relight, --fresh-paths auto, 1 thread" R -q -o "$TMP/auto1" --fresh-paths auto -j 1
 for f in spot-wall lamp-by-wall; do
   e=$(gi-compare diff "$TMP/auto1/$f.exr" "$TMP/auto2/$f.exr" | awk -F= '$1 == "nrmse" { print $2 }')
