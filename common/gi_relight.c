@@ -740,7 +740,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
             free(fb);
             return frc;
         }
-        r->fresh_used = M;
+        r->fresh_used = fresh_lit ? M : 0; /* none is traced where no entry is lit */
         /* two estimates of the same later bounces, weighed by their
          * effective sample sizes (sum w)^2 / sum w^2, inversely to their
          * variance: the .gip's photons of diffuse entries (few carry light,
@@ -1220,8 +1220,10 @@ static int fresh_trace(gi_relight *r, fbuf *bufs, uint32_t M, int new_cdf, size_
     if (new_cdf)
         fresh_cdf_build(r, nlit);
     const double S = cdf[NE];
-    if (!(S > 0.0) || !M)
+    if (!(S > 0.0) || !M) {
+        r->fresh_t_keys = gi_now(); /* nothing lit: no path, no key */
         return 0;
+    }
     gi_rng r0;
     gi_rng_seed(&r0, r->seed, 0x66726573ULL, 0);
     const double xi = gi_rng_double(&r0);

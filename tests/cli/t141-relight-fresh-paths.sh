@@ -58,6 +58,12 @@ for f in spot-wall lamp-by-wall; do
   check "$f, auto: within nrmse 0.05 of the default ($e)" \
     awk -v a="$e" 'BEGIN { exit !(a != "" && a + 0 > 0 && a + 0 < 0.05) }'
 done
+# every light off: nothing to trace, and -v says so
+printf 'resolution 16 16\ncamera position 0.278 0.273 -0.8 target 0.278 0.273 0 up 0 1 0 fov 39.3076\nlight ceiling off\nframe dark\n' >"$TMP/dark.script"
+expect_success "relight, every light off, --fresh-paths auto -v" \
+  gi-relight "$S" "$TMP/c.gip" "$TMP/c.gih" "$TMP/dark.script" -v -o "$TMP/dark" --fresh-paths auto
+expect_stderr "fresh paths: 0 from 0 lit diffuse entry points, 0 photons" "-v reports no path where nothing is lit"
+check "and no negative time" sh -c "! grep -E 'fresh paths: traced by -' '$TMP/stderr'"
 expect_exit 2 "--fresh-paths autox is a usage error" R -q -o "$TMP/bad" --fresh-paths autox
 expect_exit 2 "--fresh-paths -1 is a usage error" R -q -o "$TMP/bad" --fresh-paths -1
 expect_stderr "fresh-paths" "the message names the option"
