@@ -353,6 +353,46 @@ static int trace_gray(const gi_scene *s, const gi_rt *rt, gi_vec3 o, gi_vec3 n, 
     return 1;
 }
 
+/* Point i's N gathering rays (k x k cosine strata about its shading normal
+ * ns, jittered by the seed and i alone, so that step 8 can trace them again
+ * and find the same hits) into out[0..N); with the harmonic mean's sum of
+ * inverse distances and the nearest hit that sets the point's radius. */
+static void trace_point(const gi_scene *s, const gi_rt *rt, const cand *cd, gi_vec3 ns, int N, int k, int nfoot,
+                        uint64_t seed, size_t i, ghit *out, double *inv_sum, float *dmin)
+{
+    gi_vec3 n = gi_v3p(cd->nrm);
+    gi_rng rng;
+    gi_rng_seed(&rng, seed, i, 0x6a7);
+    *inv_sum = 0.0;
+    *dmin = INFINITY;
+    for (int r = 0; r < N; r++) {
+        float u1 = ((float)(r % k) + gi_rng_float(&rng)) / (float)k;
+        float u2 = ((float)(r / k) + gi_rng_float(&rng)) / (float)k;
+        gi_vec3 d;
+        cosine_dir(ns, u1, u2, &d);
+        float dist;
+        ghit *gh = &out[r];
+        if (gi_dot(d, n) <= 0.0f) {
+            /* below the surface itself: no light (the path tracer ends such paths) */
+            gh->ts = GHIT_NONE;
+            continue;
+        }
+        float coso = fmaxf(gi_dot(d, ns), 0.05f);
+        trace_gray(s, rt, gi_v3p(cd->pos), n, d, (float)GI_PI / ((float)nfoot * coso), gh, &dist);
+        if (isfinite(dist)) {
+            *inv_sum += 1.0 / fmax(dist, 1e-6);
+            /* the radius (the splat's weights) is the nearest hit of the
+             * rays in 16 of the k rows and 16 of the k columns of strata:
+             * the same for any N >= 256. The nearest of all 1024 rays is
+             * nearer, and the splat then spreads each point less (Sponza,
+             * 1024 rays: arcade-moved 0.0986 -> 0.1011 against 0.0966 with
+             * this radius) */
+            if (((r % k) * 16) % k < 16 && ((r / k) * 16) % k < 16)
+                *dmin = fminf(*dmin, dist);
+        }
+    }
+}
+
 /* Deterministic area-stratified candidates; both sides of double-sided triangles. */
 static cand *make_candidates(const gi_scene *s, size_t count, uint64_t seed, size_t *out_n)
 {
@@ -939,7 +979,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     cand *c = NULL;
     uint32_t *sel = NULL;
     float *reff = NULL;
-    ghit *hits = NULL;
+    ghit *hits = NULL, *rehits = NULL;
     float *ppos = NULL, *pnrm = NULL;
     int8_t *pbin = NULL;
     int32_t *pleaf = NULL;
@@ -1014,71 +1054,21 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     gi_verbose("gathering rays: %d per point", N);
     h->num_gpoints = (uint32_t)ng;
     h->gpoints = calloc(ng + 1, sizeof *h->gpoints);
-    hits = malloc((ng * (size_t)N + 1) * sizeof *hits);
+    const uint64_t hit_budget = o.hit_bytes ? o.hit_bytes : GI_HVDS_HIT_BYTES;
+    const int keep_hits = (uint64_t)ng * (uint64_t)N * sizeof *hits <= hit_budget;
+    size_t chunk = keep_hits ? ng : (size_t)(hit_budget / ((uint64_t)N * sizeof *hits));
+    if (chunk < 64)
+        chunk = 64;
+    if (chunk > ng)
+        chunk = ng;
+    if (!keep_hits)
+        gi_verbose("gathering rays: %.1f GB of hits over %.1f GB: traced again when their keys are found",
+                   (double)ng * N * sizeof *hits / 1e9, (double)hit_budget / 1e9);
+    hits = malloc((chunk * (size_t)N + 1) * sizeof *hits);
     if (!h->gpoints || !hits) {
         rc = gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %zu gathering points", ng);
         goto fail;
     }
-
-    /* 2. gathering rays. A ray's footprint, which picks the octree level
-     * it reads, is that of one of at most GI_HVDS_FOOT_RAYS rays: more rays
-     * lower the gather's noise without splitting the octree into keys of
-     * fewer photons (Cornell box, 1024 rays: the same errors within 0.0005
-     * as with their own footprints, and half the relight's gather time) */
-    const int nfoot = N < GI_HVDS_FOOT_RAYS ? N : GI_HVDS_FOOT_RAYS;
-    {
-        gi_progress prog;
-        gi_progress_begin(&prog, "gathering rays", ng);
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
-        for (size_t i = 0; i < ng; i++) {
-            gi_rt_thread_init();
-            const cand *cd = &c[sel[i]];
-            gi_gpoint *gp = &h->gpoints[i];
-            gi_vec3 n = gi_v3p(cd->nrm);
-            /* the irradiance is gathered about the shading normal, as the
-             * path tracer and the relight's pixels shade: on tessellated
-             * curved surfaces the triangles' own normals would facet it */
-            gi_vec3 ns = shading_normal_at(s, cd->tri, gi_v3p(cd->pos), n);
-            memcpy(gp->pos, cd->pos, sizeof gp->pos);
-            gi_v3store(gp->nrm, ns);
-            gp->tri = cd->tri;
-            gi_rng rng;
-            gi_rng_seed(&rng, o.seed, i, 0x6a7);
-            double inv_sum = 0.0;
-            float dmin = INFINITY;
-            for (int r = 0; r < N; r++) {
-                float u1 = ((float)(r % k) + gi_rng_float(&rng)) / (float)k;
-                float u2 = ((float)(r / k) + gi_rng_float(&rng)) / (float)k;
-                gi_vec3 d;
-                cosine_dir(ns, u1, u2, &d);
-                float dist;
-                ghit *gh = &hits[i * (size_t)N + (size_t)r];
-                if (gi_dot(d, n) <= 0.0f) {
-                    /* below the surface itself: no light (the path tracer ends such paths) */
-                    gh->ts = GHIT_NONE;
-                    continue;
-                }
-                float coso = fmaxf(gi_dot(d, ns), 0.05f);
-                trace_gray(s, rt, gi_v3p(cd->pos), n, d, (float)GI_PI / ((float)nfoot * coso), gh, &dist);
-                if (isfinite(dist)) {
-                    inv_sum += 1.0 / fmax(dist, 1e-6);
-                    /* the radius (the splat's weights) is the nearest hit of
-                     * the rays in 16 of the k rows and 16 of the k columns of
-                     * strata: the same for any N >= 256. The nearest of all
-                     * 1024 rays is nearer, and the splat then spreads each
-                     * point less (Sponza, 1024 rays: arcade-moved 0.0986 ->
-                     * 0.1011 against 0.0966 with this radius) */
-                    if (((r % k) * 16) % k < 16 && ((r / k) * 16) % k < 16)
-                        dmin = fminf(dmin, dist);
-                }
-            }
-            gp->r_harmonic = inv_sum > 0.0 ? (float)(N / inv_sum) : INFINITY;
-            gp->radius = fmaxf(fminf(0.5f * dmin, rmax), rmin);
-            gi_progress_add(&prog, 1);
-        }
-        gi_progress_end(&prog);
-    }
-    h->num_rays = (uint64_t)ng * (uint64_t)N;
 
     /* 3. photons: positions, oriented normals, normal bins */
     uint64_t P = gip->num_photons;
@@ -1130,7 +1120,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         gi_verbose("entry points: %zu of %u inside other geometry (every probe ray finds a back face): no key",
                    nhid, gip->num_entries);
 
-    /* 4. octree: root cube, then refinement by footprints */
+    /* 4. octree: root cube (refined by the gathering rays' footprints in step 2) */
     {
         float ext = 0.0f, mn[3];
         for (int a = 0; a < 3; a++)
@@ -1145,18 +1135,60 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         h->root_size = ext;
     }
     float min_size = P ? (float)sqrt((double)o.cell_photons * total / (double)P) : h->root_size;
-    for (size_t i = 0; i < ng * (size_t)N; i++) {
-        const ghit *gh = &hits[i];
-        if (gh->ts == GHIT_NONE)
-            continue;
-        float target = fmaxf(gh->foot, min_size);
-        int32_t ni = 0;
-        while (t.n[ni].level < GI_HVDS_MAX_DEPTH && t.n[ni].size > 2.0f * target) {
-            if (t.n[ni].child < 0 && tree_split(&t, ni))
-                goto oom;
-            ni = t.n[ni].child + child_of(&t.n[ni], gh->pos);
+
+    /* 2. gathering rays, and the octree refined by their footprints. A
+     * ray's footprint, which picks the octree level it reads, is that of one
+     * of at most GI_HVDS_FOOT_RAYS rays: more rays lower the gather's noise
+     * without splitting the octree into keys of fewer photons (Cornell box,
+     * 1024 rays: the same errors within 0.0005 as with their own footprints,
+     * and half the relight's gather time). The hits are held for step 8
+     * while they fit in hit_bytes; beyond that they are traced in chunks
+     * here, and each point's again in step 8 (the same rays, so the same
+     * .gih): Sponza at 4096 rays a point held 16 GB of them. */
+    const int nfoot = N < GI_HVDS_FOOT_RAYS ? N : GI_HVDS_FOOT_RAYS;
+    {
+        gi_progress prog;
+        gi_progress_begin(&prog, "gathering rays", ng);
+        for (size_t c0 = 0; c0 < ng; c0 += chunk) {
+            size_t c1 = c0 + chunk < ng ? c0 + chunk : ng;
+            ghit *ch = keep_hits ? hits + c0 * (size_t)N : hits;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+            for (size_t i = c0; i < c1; i++) {
+                gi_rt_thread_init();
+                const cand *cd = &c[sel[i]];
+                gi_gpoint *gp = &h->gpoints[i];
+                gi_vec3 n = gi_v3p(cd->nrm);
+                /* the irradiance is gathered about the shading normal, as the
+                 * path tracer and the relight's pixels shade: on tessellated
+                 * curved surfaces the triangles' own normals would facet it */
+                gi_vec3 ns = shading_normal_at(s, cd->tri, gi_v3p(cd->pos), n);
+                memcpy(gp->pos, cd->pos, sizeof gp->pos);
+                gi_v3store(gp->nrm, ns);
+                gp->tri = cd->tri;
+                double inv_sum;
+                float dmin;
+                trace_point(s, rt, cd, ns, N, k, nfoot, o.seed, i, ch + (i - c0) * (size_t)N, &inv_sum, &dmin);
+                gp->r_harmonic = inv_sum > 0.0 ? (float)(N / inv_sum) : INFINITY;
+                gp->radius = fmaxf(fminf(0.5f * dmin, rmax), rmin);
+                gi_progress_add(&prog, 1);
+            }
+            for (size_t j = 0; j < (c1 - c0) * (size_t)N; j++) {
+                const ghit *gh = &ch[j];
+                if (gh->ts == GHIT_NONE)
+                    continue;
+                float target = fmaxf(gh->foot, min_size);
+                int32_t ni = 0;
+                while (t.n[ni].level < GI_HVDS_MAX_DEPTH && t.n[ni].size > 2.0f * target) {
+                    if (t.n[ni].child < 0 && tree_split(&t, ni))
+                        goto oom;
+                    ni = t.n[ni].child + child_of(&t.n[ni], gh->pos);
+                }
+            }
         }
+        gi_progress_end(&prog);
     }
+    h->num_rays = (uint64_t)ng * (uint64_t)N;
+
     size_t nodes_after_footprints = t.count;
 
     /* 5. leak refinement: split leaves whose photons of one normal bin cannot all see each other */
@@ -1440,6 +1472,8 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         scnt1 = calloc(ng + 1, sizeof *scnt1);
         stmp = calloc(ng + 1, sizeof *stmp);
     }
+    if (!keep_hits && !(rehits = malloc(((size_t)threads * (size_t)N + 1) * sizeof *rehits)))
+        goto oom;
     if (!pcnt || !ptmp || (kmin0 && (!scnt0 || !scnt1 || !stmp)))
         goto oom;
     uint64_t descended = 0, lifted = 0, kept_occ = 0;
@@ -1456,9 +1490,17 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             oom_flag = 1;
             continue;
         }
+        /* the point's hits: held since step 2, or traced again */
+        ghit *ph = hits + i * (size_t)N;
+        if (!keep_hits) {
+            double inv_sum;
+            float dmin;
+            ph = rehits + (size_t)omp_get_thread_num() * (size_t)N;
+            trace_point(s, rt, &c[sel[i]], gi_v3p(h->gpoints[i].nrm), N, k, nfoot, o.seed, i, ph, &inv_sum, &dmin);
+        }
         uint32_t nk = 0, ns = 0;
         for (int r = 0; r < N; r++) {
-            const ghit *gh = &hits[i * (size_t)N + (size_t)r];
+            const ghit *gh = &ph[r];
             if (gh->ts == GHIT_NONE)
                 continue;
             const int bin = ghit_bin(s, gh);
@@ -1594,7 +1636,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         uint32_t w = 0;
         for (uint32_t j = 0; j < nk; j++) {
             uint32_t key = (uint32_t)(keys[j] >> 32);
-            const ghit *gh = &hits[i * (size_t)N + (uint32_t)keys[j]];
+            const ghit *gh = &ph[(uint32_t)keys[j]];
             gi_vec3 d = gi_norm(gi_sub(gi_v3p(gh->pos), gi_v3p(gpos)));
             if (!(w > 0 && pr[5 * (w - 1)] == key)) {
                 pr[5 * w] = key;
@@ -1622,6 +1664,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     h->rays_descended = descended;
     h->rays_lifted = lifted;
     h->rays_kept_occ = kept_occ;
+    h->rays_retraced = keep_hits ? 0 : (uint64_t)ng * (uint64_t)N;
     {
         uint64_t np = 0;
         for (size_t i = 0; i < ng; i++)
@@ -1725,6 +1768,7 @@ done:
     free(pnrm);
     free(ppos);
     free(hits);
+    free(rehits);
     free(reff);
     free(sel);
     free(c);

@@ -33,6 +33,9 @@ extern "C" {
  * GI_HVDS_FOOT_RAYS rays */
 #define GI_HVDS_RAY_BUDGET (1u << 28)
 #define GI_HVDS_FOOT_RAYS 256
+/* gi_hvds_opts.hit_bytes by default: Sponza's 195 k points at 1024 rays
+ * (4.0 GB) fit, at 2048 and 4096 rays they are traced again */
+#define GI_HVDS_HIT_BYTES (4ull << 30)
 
 enum { GI_GATHER_REJECTION = 0, GI_GATHER_KMEANS = 1 };
 
@@ -51,6 +54,9 @@ typedef struct gi_hvds_opts {
     int cover_min_radius;    /* rejection: 1 (default) a kept point covers a candidate within the
                                 smaller of their radii; 0: within its own (for comparisons) */
     uint64_t seed;
+    uint64_t hit_bytes;      /* memory for the gathering rays' hits held from step 2 to the keys
+                                (0: GI_HVDS_HIT_BYTES); past it each point's rays are traced again
+                                for its keys: the same .gih for one more pass of tracing */
 } gi_hvds_opts;
 
 void gi_hvds_opts_default(gi_hvds_opts *o);
@@ -107,6 +113,7 @@ typedef struct gi_hvds {
     uint64_t rays_lifted;    /* rays moved to coarser keys by key_photons (build only, not stored) */
     uint64_t rays_kept_occ;  /* of rays_descended, those that found no key of their bin below and kept the
                                 key they left, which held fewer than key_photons photons (build only) */
+    uint64_t rays_retraced;  /* rays traced a second time, their hits over hit_bytes (build only) */
 } gi_hvds;
 
 int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_t gip_fingerprint,
