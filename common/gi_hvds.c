@@ -1070,7 +1070,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         goto fail;
     }
 
-    /* 3. photons: positions, oriented normals, normal bins */
+    /* 2. photons: positions, oriented normals, normal bins */
     uint64_t P = gip->num_photons;
     h->num_photons = P;
     ppos = malloc((3 * P + 1) * sizeof *ppos);
@@ -1120,7 +1120,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         gi_verbose("entry points: %zu of %u inside other geometry (every probe ray finds a back face): no key",
                    nhid, gip->num_entries);
 
-    /* 4. octree: root cube (refined by the gathering rays' footprints in step 2) */
+    /* 3. octree: the root cube (refined by the gathering rays' footprints in step 4) */
     {
         float ext = 0.0f, mn[3];
         for (int a = 0; a < 3; a++)
@@ -1136,7 +1136,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     }
     float min_size = P ? (float)sqrt((double)o.cell_photons * total / (double)P) : h->root_size;
 
-    /* 2. gathering rays, and the octree refined by their footprints. A
+    /* 4. gathering rays, and the octree refined by their footprints. A
      * ray's footprint, which picks the octree level it reads, is that of one
      * of at most GI_HVDS_FOOT_RAYS rays: more rays lower the gather's noise
      * without splitting the octree into keys of fewer photons (Cornell box,
@@ -1479,6 +1479,8 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
     uint64_t descended = 0, lifted = 0, kept_occ = 0;
     const uint64_t kmin = (uint64_t)(o.key_photons > 0 ? o.key_photons : 0);
     int oom_flag = 0;
+    gi_progress kprog; /* minutes on Sponza at 4096 rays, traced again */
+    gi_progress_begin(&kprog, "gathering rays' keys", ng);
 #pragma omp parallel for schedule(dynamic, 16) num_threads(threads) reduction(+ : descended, lifted, kept_occ) reduction(| : oom_flag)
     for (size_t i = 0; i < ng; i++) {
         gi_rt_thread_init();
@@ -1490,7 +1492,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
             oom_flag = 1;
             continue;
         }
-        /* the point's hits: held since step 2, or traced again */
+        /* the point's hits: held since step 4, or traced again */
         ghit *ph = hits + i * (size_t)N;
         if (!keep_hits) {
             double inv_sum;
@@ -1658,7 +1660,9 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
         free(keys);
         ptmp[i] = pr;
         pcnt[i] = w;
+        gi_progress_add(&kprog, 1);
     }
+    gi_progress_end(&kprog);
     if (oom_flag)
         goto oom;
     h->rays_descended = descended;

@@ -54,7 +54,7 @@ typedef struct gi_hvds_opts {
     int cover_min_radius;    /* rejection: 1 (default) a kept point covers a candidate within the
                                 smaller of their radii; 0: within its own (for comparisons) */
     uint64_t seed;
-    uint64_t hit_bytes;      /* memory for the gathering rays' hits held from step 2 to the keys
+    uint64_t hit_bytes;      /* memory for the gathering rays' hits, held from their tracing to the keys
                                 (0: GI_HVDS_HIT_BYTES); past it each point's rays are traced again
                                 for its keys: the same .gih for one more pass of tracing */
 } gi_hvds_opts;
