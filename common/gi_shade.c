@@ -2774,7 +2774,7 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
     double tp[3], tp0 = gi_now();
     size_t nskip = 0, nref = 0, nnew = 0;
     float tau_ref = INFINITY; /* edge pixels with more contrast than this get refinement samples */
-    size_t rowlen = (size_t)w * (size_t)S, chunk = 64 * (size_t)(NE > GI_SHADE_XN ? NE : GI_SHADE_XN);
+    size_t rowlen = (size_t)w * (size_t)S * 4 /* a band of rows (below) */, chunk = 64 * (size_t)(NE > GI_SHADE_XN ? NE : GI_SHADE_XN);
     size_t cap = (rowlen > chunk ? rowlen : chunk) + (size_t)NE + 1;
     int fail = 0;
     /* shadow edges followed in rounds (see below): a full pass only */
@@ -2811,31 +2811,40 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
             b->nlit = NULL;
             b->eacc = NULL;
         }
-#pragma omp for schedule(dynamic, 2)
-        for (int y = 0; y < h; y++) {
+        /* bands of RB rows, their pixels in RB x RB tiles: a packet's 16
+         * shadow rays leave a compact patch of the view, not a 16-pixel
+         * strip (each pixel's S samples stay together and in order, so the
+         * sums are the same) */
+        const int RB = S == 1 ? 4 : 1;
+#pragma omp for schedule(dynamic, 1)
+        for (int y0 = 0; y0 < h; y0 += RB) {
             if (!ok)
                 continue; /* every thread must reach the loop; the pass fails below */
-            size_t row0 = (size_t)y * (size_t)w;
-            for (size_t e = 0; e < rowlen; e++) {
-                size_t k = e % (size_t)S, pix = row0 + e / (size_t)S;
-                const ssurf *sf = &sh->sf[k * np + pix];
-                samp[e] = (!mask || mask[pix]) && sh->svalid[k * np + pix] ? sf : NULL;
-                ids[e] = pix * 64u + (uint64_t)k;
-            }
-            light_samples(b, samp, ids, rowlen, lt, l, mats, ka, o->seed, acc, L, vis ? v : NULL, cnt,
-                          ec ? ev : NULL);
-            for (int x = 0; x < w; x++) {
-                size_t pix = row0 + (size_t)x;
+            const int y1 = y0 + RB < h ? y0 + RB : h;
+            size_t n = 0;
+            for (int x0 = 0; x0 < w; x0 += RB)
+                for (int y = y0; y < y1; y++)
+                    for (int x = x0; x < x0 + RB && x < w; x++) {
+                        size_t pix = (size_t)y * (size_t)w + (size_t)x;
+                        for (int k = 0; k < S; k++, n++) {
+                            const ssurf *sf = &sh->sf[(size_t)k * np + pix];
+                            samp[n] = (!mask || mask[pix]) && sh->svalid[(size_t)k * np + pix] ? sf : NULL;
+                            ids[n] = pix * 64u + (uint64_t)k;
+                        }
+                    }
+            light_samples(b, samp, ids, n, lt, l, mats, ka, o->seed, acc, L, vis ? v : NULL, cnt, ec ? ev : NULL);
+            for (size_t e = 0; e < n; e += (size_t)S) {
+                size_t pix = (size_t)(ids[e] >> 6);
                 if (mask && !mask[pix])
                     continue;
                 if (ec)
-                    ec[pix] = ev[x];
+                    ec[pix] = ev[e];
                 gi_vec3 sum = gi_v3(0, 0, 0);
                 for (int k = 0; k < S; k++)
-                    sum = gi_add(sum, L[(size_t)x * (size_t)S + (size_t)k]);
+                    sum = gi_add(sum, L[e + (size_t)k]);
                 gi_v3store(C + 3 * pix, gi_scale(sum, 1.0f / (float)S));
                 if (vis) /* a masked pass keeps the full pass's flag (below) */
-                    vis[pix] = mask ? (uint8_t)(v[x] | (vis[pix] & VIS_SPREAD)) : v[x];
+                    vis[pix] = mask ? (uint8_t)(v[e] | (vis[pix] & VIS_SPREAD)) : v[e];
             }
         }
 #pragma omp single
