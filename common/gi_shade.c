@@ -2774,7 +2774,8 @@ static int light_pass(gi_shade *sh, const gi_camera *cam, int w, int h, const gi
     double tp[3], tp0 = gi_now();
     size_t nskip = 0, nref = 0, nnew = 0;
     float tau_ref = INFINITY; /* edge pixels with more contrast than this get refinement samples */
-    size_t rowlen = (size_t)w * (size_t)S * 4 /* a band of rows (below) */, chunk = 64 * (size_t)(NE > GI_SHADE_XN ? NE : GI_SHADE_XN);
+    size_t rowlen = (size_t)w * (size_t)S * 4; /* a band of rows (below) */
+    size_t chunk = 64 * (size_t)(NE > GI_SHADE_XN ? NE : GI_SHADE_XN);
     size_t cap = (rowlen > chunk ? rowlen : chunk) + (size_t)NE + 1;
     int fail = 0;
     /* shadow edges followed in rounds (see below): a full pass only */
