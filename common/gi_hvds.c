@@ -589,7 +589,7 @@ static int select_rejection(const gi_rt *rt, cand *c, size_t nc, const gi_hvds_o
                          * the wall, which see less of the floor: Sponza
                          * f3's sunlit column strips 15-40 cm above a sunlit
                          * ledge read 13-22 cd/m2 of indirect light where the
-                         * path tracer finds 18-40 (README "Session 40") */
+                         * path tracer finds 18-40 (docs/journal.md "Session 40") */
                         float rc = o->cover_min_radius ? fminf(re[j], r) : re[j];
                         float ep = gi_len(gi_sub(x, gi_v3p(a->pos))) / rc;
                         float en = sqrtf(fmaxf(0.0f, 1.0f - gi_dot(n, gi_v3p(a->nrm)))) * inv_na;
@@ -1561,7 +1561,7 @@ int gi_hvds_build(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, uint64_
              * of them keep a key now; the gathering points beside a sunlit
              * strip read ~0.1 of the path tracer's light before (a column's
              * foot 5 cm above the upper gallery's floor: 42 lux against
-             * 542). Against the references of README "Six frames nobody
+             * 542). Against the references of docs/journal.md "Six frames nobody
              * tuned on", "Four more views" and the Sponza targets: every
              * sun frame better (u1-u3, u5, u6 0.0394 0.0518 0.1898 0.0328
              * 0.1794 -> 0.0383 0.0510 0.1808 0.0321 0.1767, sun-moved 0.0838

@@ -856,7 +856,7 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
      * points carry light. The paths do not know the lights, so only those
      * from lit entry points do, and the later bounces' noise goes with
      * their count (under the low sun of untuned.script's u6 on Sponza:
-     * 2.2%, README "Session 42") */
+     * 2.2%, docs/journal.md "Session 42") */
     size_t n_later = 0, n_lit = 0;
     if (gi_log_verbosity() >= 1) {
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(r->threads) reduction(+ : n_later, n_lit)
@@ -1163,7 +1163,7 @@ static int fbuf_push(fbuf *b, gi_vec3 p, gi_vec3 n, gi_vec3 f)
  * scene's current materials (BSDF sampling, the precompute's Russian
  * roulette) and every vertex's outgoing flux is summed into the finest key
  * of the nearest precomputed photon. The paths of the .gip know nothing of
- * the lights: under a low sun 2.2% of them carry light (README, "Session
+ * the lights: under a low sun 2.2% of them carry light (docs/journal.md, "Session
  * 42"), and the later bounces come from few photons of very unequal flux.
  * Thread t traces a contiguous range of paths in order (static schedule),
  * so the buffers read in thread order list the photons in path order
@@ -1389,7 +1389,7 @@ static void split_sums(const gi_relight *r, uint32_t i, double a[3], float l1[3]
  * illuminance (u6: 62.9 lux against 8.0, 57.3 of it lifted; u3 with another
  * seed: 151 against 12.9), each a bright blotch in a dim frame. Those rays'
  * later bounces are held to lift_cap times the mean of the point's other
- * rays (at least 64 of them), per ray. README, "Session 39": u3 0.1487 ->
+ * rays (at least 64 of them), per ray. docs/journal.md, "Session 39": u3 0.1487 ->
  * 0.1480, u6 0.1862 -> 0.1816, f4 0.0671 -> 0.0648, u3 with gi-hvds and
  * gi-precompute seed 2 0.2401 -> 0.1632; over 6000 of u6's points against
  * 1024-spp sensors, those with half their light lifted read 1.3-1.5x in sum

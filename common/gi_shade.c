@@ -45,7 +45,7 @@ _Static_assert(GI_SHADE_AA_MAX * GI_SHADE_AA_MAX <= 64, "an edge pixel's samples
  * 74% of its weight from two points 5 cm below it, on the rail the plinth
  * overhangs, which read 0 and 0.03 lux (Sponza f3, pixel (230, 60), where the
  * path tracer finds 139 lux of indirect light). Sponza, 320 x 240, against
- * the references of README "Session 38": f1-f4 0.0847 0.0940 0.1111 0.0665
+ * the references of docs/journal.md "Session 38": f1-f4 0.0847 0.0940 0.1111 0.0665
  * -> 0.0836 0.0913 0.1096 0.0675, u1-u5 0.0416 0.0579 0.1533 0.0443 0.0324
  * -> 0.0405 0.0579 0.1484 0.0442 0.0311; PLANE 0.15 did a little worse on
  * f1, f2 and f4 (0.0837 0.0920 0.0677), and a one-sided test (only points
@@ -3300,7 +3300,7 @@ static int glossy_neighbour(const ssurf *sf, const ssurf *o2, float pa)
  * pixels (up to r0 / 2), too far where pixels are wide. Sponza against
  * 1024-4096 spp, 320 x 240: f3 (the upper gallery over sunlit ledges)
  * 0.1021 at stride 2, 0.0960 at stride 1, 0.0968 by default, the nine other
- * views of README "Four more views" and untuned.script within -0.0013 /
+ * views of docs/journal.md "Four more views" and untuned.script within -0.0013 /
  * +0.0003 of stride 2; 640 x 480: sun-moved 0.0776 / 0.0762 / 0.0762,
  * camera-walk.script's camera moves ~580 / ~720 / ~650 ms (the default
  * traces ~30 k more samples a view, each with something within r0: ~55 ms),
@@ -3941,7 +3941,7 @@ static const float *nf_prepare(gi_shade *sh, const float *gpe, size_t ns, float 
          * its ledge to 0 where the path tracer has 41 cd/m2). Clamped:
          * sun-moved 0.0847 -> 0.0842, sun-b 0.0973 -> 0.0969, the upper
          * gallery of session 27's unseen frames 0.1911 -> 0.1899; no frame
-         * of the set worse (README, "Six frames nobody tuned on") */
+         * of the set worse (docs/journal.md, "Six frames nobody tuned on") */
         sh->nf_gpe[3 * (size_t)i] = gi_fmaxf(gpe[3 * (size_t)i] - e.x, 0.0f);
         sh->nf_gpe[3 * (size_t)i + 1] = gi_fmaxf(gpe[3 * (size_t)i + 1] - e.y, 0.0f);
         sh->nf_gpe[3 * (size_t)i + 2] = gi_fmaxf(gpe[3 * (size_t)i + 2] - e.z, 0.0f);

@@ -8,7 +8,7 @@
 # interpolated: 0.0547 without the near field, 0.0425 with it; then 0.0349 and 0.0380,
 # the near field brightening the crease by far light the ledge hides. Since the points
 # give up the near field as their gathers read it, with a reach of 0.65 R+: 0.0263;
-# README, "The near field taken out as the points read it". Since a point off the sample's
+# docs/journal.md, "The near field taken out as the points read it". Since a point off the sample's
 # tangent plane is out of reach (GI_SHADE_PLANE), the wall's samples just above the crease no
 # longer take the points on the ledge's front, 4 cm out, whose light less their near field
 # was the better guess of the wall's: the wall's own points within 2 cm above it, at R- apart,

@@ -5,7 +5,7 @@
 # surface in the 3 x 3 pixels around, or with none the points' whole irradiance (the points
 # give up their near field, which the pixels add back; such a sample got nothing back and was
 # too dark: on this view the 30 pixels it changes held a squared error of 486 against a
-# 2048-spp reference, 165 now; README, "Edge samples and the near field"). Checks that both
+# 2048-spp reference, 165 now; docs/journal.md, "Edge samples and the near field"). Checks that both
 # ways are taken and that the indirect light stays within nrmse 0.17 of a 1024-spp reference
 # (0.150 on 2026-12-06).
 . "$(dirname "$0")/lib.sh"

@@ -741,7 +741,7 @@ static double later_flux_total(const pipe *p)
  * (two unbiased estimates of it, within 3%); the gathering points'
  * indirect irradiance stays within 12% of the path tracer (relative rms
  * at 96 points; the path tracer's own noise at 1024 spp is ~8% there, so
- * this guards against a bias, not a gain: README, "Session 43"); and one
+ * this guards against a bias, not a gain: docs/journal.md, "Session 43"); and one
  * thread gives the bytes two give. */
 static void test_fresh_paths(void **state)
 {
