@@ -67,8 +67,13 @@ void gi_scene_surface(const gi_scene *s, uint32_t tri, float u, float v, gi_surf
 /* Triangle tri's unit geometric normal, bit for bit gi_scene_surface's ng. */
 gi_vec3 gi_scene_tri_normal(const gi_scene *s, uint32_t tri);
 /* Move p off its surface along ng (towards the side dir points to) by a few
- * ulps scaled with |p|: robust for scenes from millimetres to kilometres
- * (Waechter and Binder 2019, reimplemented). */
+ * ulps scaled with |p|, a fixed 1/65536 m within 1/32 m of a coordinate's zero
+ * (Waechter and Binder 2019, reimplemented). The Cornell box scaled by 0.01 to
+ * 10,000 (5.5 mm to 5.5 km wide) relights within 0.024 nrmse of the box at
+ * scale 1 (t142 tests 1,000 and 10,000); at 0.001 (0.55 mm) that fixed step is
+ * 3% of the room and the frames are 0.07-0.43 off. p must be on its surface
+ * to a few of its own ulps: a point found as o + t d from a far origin is not
+ * (shadow_edge_pixel puts it back on its plane). */
 static inline gi_vec3 gi_rt_offset(gi_vec3 p, gi_vec3 ng, gi_vec3 dir)
 {
     /* integer ulps where |p| is large, a fixed tiny step near 0; inline:

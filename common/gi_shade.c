@@ -2610,7 +2610,15 @@ static void shadow_edge_pixel(const gi_shade *sh, sbatch *b, const gi_camera *ca
         }
         float dn = gi_dot(rd, ng), t = pn / dn;
         if (!on && dn < 0.0f && t > 0.0f && isfinite(t)) {
-            gi_v3store(sub.p, gi_add(ro, gi_scale(rd, t)));
+            /* put back on the plane: o + t d carries the rounding of the
+             * camera's distance, which gi_rt_offset's few ulps of the
+             * point's own coordinates do not cover. A wall at x = 0 seen
+             * from 450 m (the Cornell box scaled by 1000): points 3e-5 m
+             * behind it, whose shadow rays it blocked (shadow-edge pixels
+             * at half their light) */
+            gi_vec3 q = gi_add(ro, gi_scale(rd, t));
+            q = gi_sub(q, gi_scale(ng, gi_dot(gi_sub(q, p), ng)));
+            gi_v3store(sub.p, q);
             gi_v3store(sub.ng, ng);
             memcpy(sub.ns, c->ns, sizeof sub.ns);
             on = 1;
