@@ -2286,6 +2286,21 @@ static void glossy_gather(gi_shade *sh, const ssurf *sf, size_t i, size_t gq, fl
 #ifndef GI_SHADE_GLOSSY_FEW
 #define GI_SHADE_GLOSSY_FEW 8
 #endif
+/* The weight, along one axis, of a glossy gather d pixels from the pixel
+ * that averages the gathers within its window (R: the window's half-width,
+ * G: the spacing of its material's grid): 1 out to R + 1/2 - G/2, then
+ * down to 0 at R + 1/2 + G/2, the window's box smoothed by one grid
+ * spacing. Over a grid of spacing G the weights then sum to the same for
+ * every pixel, and a pixel one step further takes in a gather by degrees.
+ * With a plain box the gathers came in and went out all at once, every
+ * G-th pixel: a metal's reflection was a mosaic of G x G blocks. G = 1 is
+ * the box. */
+static inline float glossy_wt(int d, int R, int G)
+{
+    float a = (float)(d < 0 ? -d : d);
+    float v = ((float)R + 0.5f - a) / (float)G + 0.5f;
+    return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+}
 /* The slot of the grid pixel at (fx, fy) of the grid (gw a row): those at
  * even fx and fy first, (gw + 1) / 2 a row, ncoarse of them; then every
  * grid pixel at fy gw + fx after them (the even ones' places unused) */
@@ -4489,26 +4504,32 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
             const ssurf *sf = &sh->sf[i];
             if (gather && sh->gdo[i]) {
                 gi_vec3 g = gi_v3(0, 0, 0);
-                int cnt = 0;
+                float wsum = 0.0f;
                 /* with several samples a pixel (--ss) every sample
                  * gathers, and the window runs over the samples of the same
                  * jitter (k) in the pixels around (it read x = y = 0 then:
                  * every sample took sample 0's term, and a metal floor at
                  * --ss 2 reflected nothing) */
                 const size_t k = i / np, pix = i % np;
-                /* the gathers on the grid, then the lone ones */
+                /* the gathers on the grid, then the lone ones, each
+                 * weighed by glossy_wt: the window's edges ramp over one
+                 * grid spacing (a box's steps made blocks) */
                 const int R = mwin[sf->material], gg = S1 ? (int)gs : 1;
+                const int G = S1 ? (int)mgs[sf->material] : 1, RR = R + G / 2;
                 int x = (int)(pix % (size_t)w), y = (int)(pix / (size_t)w);
-                int x0 = x - R > 0 ? x - R : 0, x1 = x + R < w - 1 ? x + R : w - 1;
-                int y0 = y - R > 0 ? y - R : 0, y1 = y + R < h - 1 ? y + R : h - 1;
-                for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1; yy += gg)
+                int x0 = x - RR > 0 ? x - RR : 0, x1 = x + RR < w - 1 ? x + RR : w - 1;
+                int y0 = y - RR > 0 ? y - RR : 0, y1 = y + RR < h - 1 ? y + RR : h - 1;
+                for (int yy = (y0 + gg - 1) / gg * gg; yy <= y1; yy += gg) {
+                    const float wy = glossy_wt(yy - y, R, G);
                     for (int xx = (x0 + gg - 1) / gg * gg; xx <= x1; xx += gg) {
                         size_t j = k * np + (size_t)yy * (size_t)w + (size_t)xx;
-                        if (sh->gdo[j] != 1 || (j != i && !glossy_neighbour(sf, &sh->sf[j], pa)))
+                        float wt = wy * glossy_wt(xx - x, R, G);
+                        if (!(wt > 0.0f) || sh->gdo[j] != 1 || (j != i && !glossy_neighbour(sf, &sh->sf[j], pa)))
                             continue;
-                        g = gi_add(g, gi_v3p(sh->gterm + 3 * j));
-                        cnt++;
+                        g = gi_madd(g, gi_v3p(sh->gterm + 3 * j), wt);
+                        wsum += wt;
                     }
+                }
                 for (int yy = y0; nlone && yy <= y1; yy++) {
                     /* (only with one sample a pixel, k = 0) */
                     uint32_t a = (uint32_t)((size_t)yy * (size_t)w + (size_t)x0);
@@ -4520,15 +4541,17 @@ int gi_shade_frame(gi_shade *sh, gi_gbuffer *gb, const gi_camera *cam, int w, in
                         else
                             hi = md;
                     }
+                    const float wy = glossy_wt(yy - y, R, G);
                     for (; lo < nlone && lone[lo] <= (uint32_t)((size_t)yy * (size_t)w + (size_t)x1); lo++) {
                         size_t j = lone[lo];
-                        if (j != i && !glossy_neighbour(sf, &sh->sf[j], pa))
+                        float wt = wy * glossy_wt((int)(j % (size_t)w) - x, R, G);
+                        if (!(wt > 0.0f) || (j != i && !glossy_neighbour(sf, &sh->sf[j], pa)))
                             continue;
-                        g = gi_add(g, gi_v3p(sh->gterm + 3 * j));
-                        cnt++;
+                        g = gi_madd(g, gi_v3p(sh->gterm + 3 * j), wt);
+                        wsum += wt;
                     }
                 }
-                g = gi_scale(g, cnt ? 1.0f / (float)cnt : 0.0f);
+                g = gi_scale(g, wsum > 0.0f ? 1.0f / wsum : 0.0f);
                 v = indirect_sample(sh, sf, mats, gpe, gpt, &g, nfe ? nfe + 3 * i : NULL);
             } else if (nfe && sh->rec[i].material != UINT32_MAX && glossy[sh->rec[i].material]) {
                 v = indirect_sample(sh, sf, mats, gpe, gpt, NULL, nfe + 3 * i);

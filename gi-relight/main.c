@@ -57,7 +57,7 @@ static void help(void)
            "                          pixels for little more accuracy)\n"
            "  --glossy-rays N         a metal's pixels reflect indirect light from N rays of its lobe\n"
            "                          (every other pixel of every other row, traced once per view and\n"
-           "                          roughness, averaged over 7 x 7 pixels of its surface; default\n"
+           "                          roughness, averaged over ~7 x 7 pixels of its surface; default\n"
            "                          36, 16 of them for a lobe narrower than that window: at\n"
            "                          640x480, roughness <= 0.15; 0: the gathering points' linear fit)\n"
            "  --glossy-stride N       of those, the pixels whose x and y are multiples of N gather\n"
