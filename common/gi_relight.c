@@ -17,6 +17,11 @@
 
 /* four float lanes (GCC and Clang vector extension; SSE on x86-64) */
 #define SPLIT_LATER 0x80000000u /* slot_src: the key's later vertices */
+/* the fresh paths' importance of a lit entry that the view's gathering
+ * points do not see (fresh_cdf_build) */
+#ifndef GI_RELIGHT_FRESH_AWAY
+#define GI_RELIGHT_FRESH_AWAY 0.1
+#endif
 
 typedef float v4f __attribute__((vector_size(16)));
 
@@ -123,6 +128,14 @@ struct gi_relight {
     double fresh_t_keys;
     double fresh_alpha;   /* the weight of the .gip's later photons (of diffuse entries); 1 - it the fresh ones' */
     double fresh_ess[2];  /* effective sample sizes: the .gip's, the fresh paths' */
+    /* the gathering points the last view read (gi_relight_gather's list),
+     * for the fresh paths' importance (fresh_cdf_build) */
+    uint32_t *view_pts;
+    size_t view_n, view_cap;
+    uint8_t *key_seen;    /* per key: read by one of those points' rays */
+    double fresh_away;    /* the importance of a lit entry they do not see (1: none) */
+    size_t fresh_seen;    /* lit entries seen by them, of the last cdf */
+    double fresh_seen_share; /* their share of the lit entries' flux */
     int any_glossy;       /* some material has a glossy lobe: gp_t is computed */
     /* gi_relight_key_at: photons in a hash grid of cell kcell (CSR by bucket) */
     float kcell;
@@ -186,6 +199,8 @@ int gi_relight_new(const gi_scene *s, const gi_rt *rt, const gi_gip *gip, const 
     r->threads = threads > 0 ? threads : omp_get_num_procs();
     r->seed = seed;
     r->lift_cap = GI_RELIGHT_LIFT_CAP;
+    r->fresh_away = GI_RELIGHT_FRESH_AWAY;
+    r->fresh_seen = SIZE_MAX;
     if (alloc_all(r)) {
         gi_relight_free(r);
         return gi_status_set(st, GI_EXIT_SYSTEM, "out of memory for %llu photons",
@@ -321,6 +336,8 @@ void gi_relight_free(gi_relight *r)
     free(r->key_rad);
     free(r->key_start);
     free(r->key_mid);
+    free(r->view_pts);
+    free(r->key_seen);
     free(r->key_photon);
     free(r->key_flux0);
     free(r->key_da0);
@@ -874,6 +891,10 @@ int gi_relight_set_lights(gi_relight *r, const gi_light *lights, size_t n, int a
         gi_verbose("fresh paths: %u from %zu lit diffuse entry points, %zu photons summed into keys (%zu found no "
                    "key), %.1f ms",
                    r->fresh_used, fresh_lit, r->fresh_deposits, r->fresh_lost, 1e3 * (t2 - t1b));
+    if (fresh && r->fresh_seen != SIZE_MAX)
+        gi_verbose("fresh paths: %zu of the lit entry points (%.1f%% of their flux) on surfaces the last view's "
+                   "gathering points see; the others start paths at %g times their flux's rate",
+                   r->fresh_seen, 100.0 * r->fresh_seen_share, r->fresh_away);
     if (fresh)
         gi_verbose("fresh paths: traced by %.1f ms; effective sample sizes %.0f (.gip) and %.0f (fresh): weights "
                    "%.3f and %.3f",
@@ -1120,6 +1141,7 @@ void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n)
     r->fresh_paths = n;
     r->fresh_target = 0;
 }
+void gi_relight_set_fresh_importance(gi_relight *r, int on) { r->fresh_away = on ? GI_RELIGHT_FRESH_AWAY : 1.0; }
 void gi_relight_set_fresh_auto(gi_relight *r, uint32_t target)
 {
     r->fresh_target = target;
@@ -1186,14 +1208,61 @@ static double fresh_ess_of(const fbuf *fb, int threads)
 
 /* The running sum of the diffuse entries' flux luminance (r->fresh_cdf);
  * *nlit: how many are lit. */
+/* The keys that the last view's gathering points read (their pairs' keys
+ * and their split rays' keys) into r->key_seen; 0 when there is no view yet
+ * or no memory for the marks. */
+static int mark_seen_keys(gi_relight *r)
+{
+    const gi_hvds *h = r->h;
+    if (!r->view_n || !h->photon_key)
+        return 0;
+    if (!r->key_seen && !(r->key_seen = malloc((size_t)h->num_keys + 1)))
+        return 0;
+    memset(r->key_seen, 0, (size_t)h->num_keys + 1);
+    for (size_t q = 0; q < r->view_n; q++) {
+        uint32_t i = r->view_pts[q];
+        if (i >= h->num_gpoints)
+            continue;
+        const gi_gpoint *gp = &h->gpoints[i];
+        for (uint32_t j = 0; j < gp->num_pairs; j++)
+            r->key_seen[h->pair_key[gp->first_pair + j]] = 1;
+        if (r->key_mid)
+            for (uint32_t j = h->split_first[i]; j < h->split_first[i] + h->split_n0[i] + h->split_n1[i]; j++)
+                r->key_seen[r->slot_src[r->split_slot[j]] & ~SPLIT_LATER] = 1;
+    }
+    return 1;
+}
+
+/* 1 if entry e's key or one of its ancestors is marked in r->key_seen */
+static int entry_seen(const gi_relight *r, uint32_t e)
+{
+    const gi_hvds *h = r->h;
+    uint32_t k = h->photon_key[r->gip->path_start[e]];
+    for (int d = 0; k != GI_HVDS_NO_KEY && d < 64; d++, k = h->key_parent[k])
+        if (r->key_seen[k])
+            return 1;
+    return 0;
+}
+
+/* The running sum of the lit diffuse entries' flux luminance times their
+ * importance: 1 for an entry on a surface that the last view's gathering
+ * points see (its key or an ancestor read by their rays), GI_RELIGHT_FRESH_AWAY
+ * for the others, whose paths only reach the view after another bounce (or
+ * never: an office's roof and outer walls under a sun, "Session 48"). A path
+ * from an entry chosen with probability p carries flux / (M p), so the sum
+ * stays unbiased; only where the paths start changes. No view yet (the first
+ * frame): every entry 1. */
 static void fresh_cdf_build(gi_relight *r, size_t *nlit)
 {
     const gi_gip *g = r->gip;
     const uint32_t NE = g->num_entries;
     double *cdf = r->fresh_cdf;
     cdf[0] = 0.0;
-    size_t lit = 0;
-#pragma omp parallel for schedule(static) num_threads(r->threads) reduction(+ : lit)
+    size_t lit = 0, seen = 0;
+    double lsum = 0.0, lseen = 0.0;
+    const int imp = r->fresh_away < 1.0 && mark_seen_keys(r);
+    const double away = r->fresh_away;
+#pragma omp parallel for schedule(static) num_threads(r->threads) reduction(+ : lit, seen, lsum, lseen)
     for (uint32_t e = 0; e < NE; e++) {
         double l = 0.0;
         if (r->entry_fd[3 * (size_t)e] >= 0.0f) {
@@ -1202,8 +1271,19 @@ static void fresh_cdf_build(gi_relight *r, size_t *nlit)
             l = l > 0.0 ? l : 0.0;
         }
         lit += l > 0.0;
+        lsum += l;
+        if (imp && l > 0.0) {
+            if (entry_seen(r, e)) {
+                seen++;
+                lseen += l;
+            } else {
+                l *= away;
+            }
+        }
         cdf[e + 1] = l;
     }
+    r->fresh_seen = imp ? seen : SIZE_MAX;
+    r->fresh_seen_share = imp && lsum > 0.0 ? lseen / lsum : 0.0;
     for (uint32_t e = 0; e < NE; e++)
         cdf[e + 1] += cdf[e];
     *nlit = lit;
@@ -1414,6 +1494,18 @@ void gi_relight_set_lift_cap(gi_relight *r, float cap) { r->lift_cap = cap > 0.0
 void gi_relight_gather(gi_relight *r, const uint32_t *idx, size_t n)
 {
     const gi_hvds *h = r->h;
+    if (idx && n) { /* the view's points, for the next light state's fresh paths */
+        if (r->view_cap < n) {
+            uint32_t *v = realloc(r->view_pts, n * sizeof *v);
+            if (v) {
+                r->view_pts = v;
+                r->view_cap = n;
+            }
+        }
+        r->view_n = r->view_cap >= n ? n : 0; /* (out of memory: no importance) */
+        if (r->view_n)
+            memcpy(r->view_pts, idx, n * sizeof *idx);
+    }
     if (!idx)
         n = h->num_gpoints;
     size_t ns = 0;

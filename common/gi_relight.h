@@ -84,6 +84,14 @@ void gi_relight_set_fresh_paths(gi_relight *r, uint32_t n);
  * later photons are few (Sponza u6: 5,305), so that is ~10^6 paths there
  * and the pilot alone beside a lamp. 0: off. Ends gi_relight_set_fresh_paths. */
 void gi_relight_set_fresh_auto(gi_relight *r, uint32_t target);
+/* Fresh paths' importance (on by default): after a frame, the lit entry
+ * points on surfaces its gathering points see (a key of theirs, or an
+ * ancestor, read by the points' rays) start paths in proportion to their
+ * flux, the others at GI_RELIGHT_FRESH_AWAY times that rate, each path
+ * weighed by 1 / its probability: unbiased, and under a sun most of the
+ * flux that falls on a building's roof and outer walls sends its paths
+ * elsewhere. Off: every lit entry in proportion to its flux. */
+void gi_relight_set_fresh_importance(gi_relight *r, int on);
 #define GI_RELIGHT_FRESH_AUTO 131072u
 #define GI_RELIGHT_FRESH_PILOT 16384u
 #define GI_RELIGHT_FRESH_MAX 4194304u

@@ -89,7 +89,12 @@ static void help(void)
            "                          for final frames. auto: a pilot of 16384 paths, then as\n"
            "                          many as reach an effective sample size of 131072 with the\n"
            "                          .gip's (at most 4194304; Sponza: ~100 k under its arcade\n"
-           "                          lamps, 0.6-1.6 M under its sun, 0.1-0.25 s) (default 0: off)\n",
+           "                          lamps, 0.6-1.6 M under its sun, 0.1-0.25 s) (default 0: off)\n"
+          "  --fresh-view on|off     start the fresh paths ten times as often from the lit entry\n"
+          "                          points on surfaces the last frame's gathering points see as\n"
+          "                          from the others (weighted back: the same light on average);\n"
+          "                          a sun on a building's roof and outer walls sends few paths\n"
+          "                          in at its windows (default on; no effect on the first frame)\n",
           stdout);
     fputs("  --interp linear|mean    a pixel's indirect light from its gathering points: half their\n"
            "                          weighted mean, half a weighted linear fit (default), or the mean\n"
@@ -107,7 +112,7 @@ static void help(void)
            "scene), 4 system failure\n", stdout);
 }
 
-enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR, OPT_NSTRIDE, OPT_LCAP, OPT_FRESH };
+enum { OPT_FRAMES = 256, OPT_PNG, OPT_EXPO, OPT_TIMINGS, OPT_AREA, OPT_SS, OPT_TEXF, OPT_AA, OPT_EREF, OPT_NOEREF, OPT_RCON, OPT_GPTS, OPT_ONLY, OPT_COV, OPT_GRAYS, OPT_GMINKS, OPT_GSTRIDE, OPT_INTERP, OPT_NEAR, OPT_NSTRIDE, OPT_LCAP, OPT_FRESH, OPT_FVIEW };
 
 /* gi_shade's glossy gathers map a ray's hit to the key it reads */
 static void gather_points(void *ctx, const uint32_t *idx, size_t n) { gi_relight_gather((gi_relight *)ctx, idx, n); }
@@ -196,6 +201,7 @@ int main(int argc, char **argv)
         {"near-field", required_argument, 0, OPT_NEAR},
         {"near-stride", required_argument, 0, OPT_NSTRIDE}, {"lift-cap", required_argument, 0, OPT_LCAP},
         {"fresh-paths", required_argument, 0, OPT_FRESH},
+        {"fresh-view", required_argument, 0, OPT_FVIEW},
         {"gpoints", no_argument, 0, OPT_GPTS},   {"only", required_argument, 0, OPT_ONLY},
         {"seed", required_argument, 0, 's'},
         {"threads", required_argument, 0, 'j'},  {"quiet", no_argument, 0, 'q'},
@@ -204,6 +210,7 @@ int main(int argc, char **argv)
     int png = 0, gpts = 0, threads = 0, c;
     float ev = 0.0f, lift_cap = GI_RELIGHT_LIFT_CAP;
     long fresh_paths = 0;
+    int fresh_view = 1;
     gi_shade_opts so;
     gi_shade_opts_default(&so);
     opterr = 0;
@@ -258,6 +265,14 @@ int main(int argc, char **argv)
                 so.interp_linear = 0;
             else
                 gi_usage_error("--interp: expected linear or mean, got '%s'", optarg);
+            break;
+        case OPT_FVIEW:
+            if (!strcmp(optarg, "on"))
+                fresh_view = 1;
+            else if (!strcmp(optarg, "off"))
+                fresh_view = 0;
+            else
+                gi_usage_error("--fresh-view: expected on or off, got '%s'", optarg);
             break;
         case OPT_TEXF:
             if (!strcmp(optarg, "on"))
@@ -381,6 +396,8 @@ int main(int argc, char **argv)
         rc = gi_relight_new(s, rt, gip, h, threads, so.seed, &rl, &st);
     if (!rc)
         gi_relight_set_lift_cap(rl, lift_cap);
+    if (!rc)
+        gi_relight_set_fresh_importance(rl, fresh_view);
     if (!rc && fresh_paths < 0)
         gi_relight_set_fresh_auto(rl, GI_RELIGHT_FRESH_AUTO);
     else if (!rc)
